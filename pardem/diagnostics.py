@@ -1,0 +1,108 @@
+"""Read-only measurements of the state: energies, largest overlap, per-contact table.
+
+Stage: diagnostics and output. Nothing here changes the state; the contact table re-evaluates the
+contact law at the current (synchronous) velocities without touching the springs, so its normal
+force can differ from the one used in the last step by the damping term's half-step change.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+
+@nb.njit(cache=True)
+def kinetic_energy(ps, n_move):
+    """Translational + rotational kinetic energy (J) of the moving particles."""
+    e = 0.0
+    for i in range(n_move):
+        m = ps.mass[i]
+        e += 0.5 * m * (ps.v[i, 0] ** 2 + ps.v[i, 1] ** 2)
+        e += 0.0625 * m * (2.0 * ps.radius[i]) ** 2 * ps.omega[i] ** 2  # I = m d^2/8
+    return e
+
+
+@nb.njit(cache=True)
+def elastic_energy(ps, pairs, prm):
+    """Energy (J) stored in the normal springs of touching particle pairs and tangential springs."""
+    e = 0.0
+    for k in range(pairs.count[0]):
+        i, j = pairs.i[k], pairs.j[k]
+        d = ps.radius[i] + ps.radius[j] - math.hypot(ps.x[i, 0] - ps.x[j, 0],
+                                                     ps.x[i, 1] - ps.x[j, 1])
+        if d > 0.0:
+            e += 0.5 * prm.k_n * d * d
+            if pairs.xi.shape[0] > 0:
+                e += 0.5 * prm.k_t * (pairs.xi[k, 0] ** 2 + pairs.xi[k, 1] ** 2)
+    return e
+
+
+@nb.njit(cache=True)
+def ring_elastic_energy(ps, pairs, prm, r_out):
+    """Energy (J) in the normal springs of contacts with the flat ring surfaces (outer radius
+    r_out at the current time)."""
+    e = 0.0
+    for q in range(pairs.wall_count[0]):
+        i = pairs.wall[q]
+        r = math.hypot(ps.x[i, 0], ps.x[i, 1])
+        d = max(ps.radius[i] - (r - prm.r_in), ps.radius[i] - (r_out - r))
+        if d > 0.0:
+            e += 0.5 * prm.k_n * d * d
+    return e
+
+
+@nb.njit(cache=True)
+def max_overlap_ratio(ps, pairs, prm, r_out):
+    """Largest overlap over the diameter of the smaller free particle involved, over disk-disk,
+    disk-wall-disk and disk-flat-ring contacts (0 when nothing touches)."""
+    worst = 0.0
+    for k in range(pairs.count[0]):
+        i, j = pairs.i[k], pairs.j[k]  # i has the lower gid, so it is a free particle
+        d = ps.radius[i] + ps.radius[j] - math.hypot(ps.x[i, 0] - ps.x[j, 0],
+                                                     ps.x[i, 1] - ps.x[j, 1])
+        a = min(ps.radius[i], ps.radius[j]) if ps.kind[j] == 0 else ps.radius[i]
+        worst = max(worst, d / (2.0 * a))
+    for q in range(pairs.wall_count[0]):
+        i = pairs.wall[q]
+        r = math.hypot(ps.x[i, 0], ps.x[i, 1])
+        d = max(ps.radius[i] - (r - prm.r_in), ps.radius[i] - (r_out - r))
+        worst = max(worst, d / (2.0 * ps.radius[i]))
+    return worst
+
+
+@nb.njit(cache=True)
+def touching_pairs(ps, pairs):
+    """Indices into the pair list of the pairs that touch now."""
+    out = np.empty(pairs.count[0], np.int64)
+    m = 0
+    for k in range(pairs.count[0]):
+        i, j = pairs.i[k], pairs.j[k]
+        dx = ps.x[i, 0] - ps.x[j, 0]
+        dy = ps.x[i, 1] - ps.x[j, 1]
+        rs = ps.radius[i] + ps.radius[j]
+        if dx * dx + dy * dy < rs * rs:
+            out[m] = k
+            m += 1
+    return out[:m]
+
+
+def contact_table(ps, pairs, prm, friction: bool, damping: bool) -> dict[str, np.ndarray]:
+    """Touching particle pairs: ``ids`` [M,2] (gid of i < gid of j), ``normal`` [M,2] (unit, from j
+    to i), ``overlap`` [M] (m), ``normal_force`` [M] (N, on i along n), ``tangential_force``
+    [M,2] (N, on i), ``spring`` [M,2] (m, xi). Forces on j are the negatives."""
+    k = touching_pairs(ps, pairs)
+    i, j = pairs.i[k], pairs.j[k]
+    d = ps.x[i] - ps.x[j]
+    dist = np.hypot(d[:, 0], d[:, 1])
+    n = d / dist[:, None]
+    overlap = ps.radius[i] + ps.radius[j] - dist
+    fn = prm.k_n * overlap
+    if damping:
+        s = ps.radius[i] * ps.omega[i] + ps.radius[j] * ps.omega[j]
+        dv = ps.v[i] - ps.v[j] + s[:, None] * np.column_stack([n[:, 1], -n[:, 0]])
+        fn = fn - prm.gamma_n * np.einsum("ij,ij->i", dv, n)
+    xi = pairs.xi[k] if friction else np.zeros((k.size, 2))
+    return {"ids": np.column_stack([ps.gid[i], ps.gid[j]]), "normal": n, "overlap": overlap,
+            "normal_force": fn, "tangential_force": -prm.k_t * xi, "spring": xi.copy()}

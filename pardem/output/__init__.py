@@ -1,0 +1,1 @@
+"""Writers and readers: particle snapshots, checkpoints. Writers never change the state."""

@@ -1,0 +1,144 @@
+"""Struct-of-arrays state: the particle arrays, the pair list with its contact history, the
+scalar parameters of a scene, and the clock.
+
+Stage: data. Every compiled kernel reads and writes these arrays in place; nothing here allocates
+during a step. Units are SI throughout.
+
+Layout invariants
+- Particles are stored as [moving free particles | prescribed bodies (wall disks)]. Each particle
+  has a global id ``gid``; free particles have gids 0..N_free-1 and wall disks the gids after them,
+  so "sum a particle's contacts in gid order" also fixes where wall contacts fall in the sum.
+- The pair list holds candidate pairs (Verlet list) in canonical order: sorted by
+  (lower gid, higher gid), with ``i`` the lower-gid partner. Only touching pairs contribute.
+- ``xi`` (tangential spring, m) is stored per pair, aligned with the pair list; a scene without
+  tangential friction allocates it with zero rows (no history storage).
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+FREE, INNER_WALL, OUTER_WALL = 0, 1, 2
+"""Values of ``Particles.kind``."""
+
+
+class Particles(NamedTuple):
+    """Per-particle arrays, length n (capacity). Shapes in brackets, units in parentheses.
+
+    gid [n] int64: global id. kind [n] int8: FREE / INNER_WALL / OUTER_WALL.
+    x [n,2] (m), v [n,2] (m/s), theta [n] (rad), omega [n] (rad/s, counter-clockwise positive).
+    f [n,2] (N) and tau [n] (N m): the force and torque of the current positions.
+    radius [n] (m), mass [n] (kg), inv_mass [n] (1/kg), inv_inertia [n] (1/(kg m^2)):
+    inverse mass and inertia are 0 for prescribed bodies.
+    phi0 [n] (rad): a wall disk's angular position on its ring at t = 0 (0 for free particles).
+    v_pred [n,2] (m/s), w_pred [n] (rad/s): velocity and spin predicted at the new full step,
+    v(t+dt) ~ v(t+dt/2) + dt/2 a(t); the velocity-dependent forces (damping, tangential
+    spring) use them, which makes the contact velocity second-order accurate in dt.
+    x_ref [n,2] (m): positions at the last neighbour-list build (skin bookkeeping).
+    xi_wall [n,2] (m): tangential spring of the contact with a flat ring surface (a disk cannot
+    touch both rings, so one slot suffices); zero rows without tangential friction.
+    """
+
+    gid: np.ndarray
+    kind: np.ndarray
+    x: np.ndarray
+    v: np.ndarray
+    theta: np.ndarray
+    omega: np.ndarray
+    f: np.ndarray
+    tau: np.ndarray
+    radius: np.ndarray
+    mass: np.ndarray
+    inv_mass: np.ndarray
+    inv_inertia: np.ndarray
+    phi0: np.ndarray
+    v_pred: np.ndarray
+    w_pred: np.ndarray
+    x_ref: np.ndarray
+    xi_wall: np.ndarray
+
+
+class Pairs(NamedTuple):
+    """Verlet pair list with capacity; ``count[0]`` pairs are valid.
+
+    i, j [cap] int32: local indices, gid[i] < gid[j]. xi [cap,2] (m): tangential springs
+    (zero rows without friction). wall [capw] int32, wall_count[0]: free particles near a flat
+    ring surface (candidates for flat-wall contacts).
+    """
+
+    i: np.ndarray
+    j: np.ndarray
+    xi: np.ndarray
+    count: np.ndarray
+    wall: np.ndarray
+    wall_count: np.ndarray
+
+
+class Params(NamedTuple):
+    """Scalar parameters of a scene (all float64, SI).
+
+    dt (s); k_n (N/m); gamma_n (kg/s); k_t (N/m); mu; mu_b_g = mu_bottom * g (m/s^2);
+    r_in (m) inner ring radius; omega_in (rad/s); r_out (m) final outer radius; r_out0 (m)
+    outer radius at t = 0; t_comp (s) compression time; skin (m) Verlet skin;
+    escape_radius (m): a particle farther than this from the axis is an error (inf for free scenes).
+    """
+
+    dt: float
+    k_n: float
+    gamma_n: float
+    k_t: float
+    mu: float
+    mu_b_g: float
+    r_in: float
+    omega_in: float
+    r_out: float
+    r_out0: float
+    t_comp: float
+    skin: float
+    escape_radius: float
+
+
+class Clock(NamedTuple):
+    """Integer clock. step[0]: steps taken (time = step * dt, never accumulated, so that restarts
+    and ranks agree bit for bit). phase[0]: 0 = step complete, 1 = drifted but forces pending.
+    n_move[0]: particles integrated (the leading block). n_local[0]: particles stored.
+    r_out_ref[0] (float array, m): outer-ring radius at the last neighbour build.
+    reach[0] (m): bound on how much any overlap can change in half a step, 2 max|v| dt/2
+    (pairs that close to touching get their share of the damping force).
+    """
+
+    step: np.ndarray
+    phase: np.ndarray
+    n_move: np.ndarray
+    n_local: np.ndarray
+    r_out_ref: np.ndarray
+    reach: np.ndarray
+
+
+def new_particles(n: int, friction: bool) -> Particles:
+    """Zeroed particle arrays for n particles."""
+    z = np.zeros
+    return Particles(
+        gid=z(n, np.int64), kind=z(n, np.int8), x=z((n, 2)), v=z((n, 2)), theta=z(n),
+        omega=z(n), f=z((n, 2)), tau=z(n), radius=z(n), mass=z(n), inv_mass=z(n),
+        inv_inertia=z(n), phi0=z(n), v_pred=z((n, 2)), w_pred=z(n), x_ref=z((n, 2)), xi_wall=z((n if friction else 0, 2)),
+    )
+
+
+def new_pairs(capacity: int, wall_capacity: int, friction: bool) -> Pairs:
+    """Empty pair list with the given capacities."""
+    return Pairs(
+        i=np.zeros(capacity, np.int32), j=np.zeros(capacity, np.int32),
+        xi=np.zeros((capacity if friction else 0, 2)), count=np.zeros(1, np.int64),
+        wall=np.zeros(wall_capacity, np.int32), wall_count=np.zeros(1, np.int64),
+    )
+
+
+def new_clock(n_move: int, n_local: int, r_out0: float) -> Clock:
+    return Clock(
+        step=np.zeros(1, np.int64), phase=np.zeros(1, np.int64),
+        n_move=np.array([n_move], np.int64), n_local=np.array([n_local], np.int64),
+        r_out_ref=np.array([r_out0]), reach=np.zeros(1),
+    )

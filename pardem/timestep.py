@@ -1,0 +1,82 @@
+"""Time step from the analytic contact time of the linear spring-dashpot (SPEC §3).
+
+Head-on, without friction: omega_0^2 = k_n/m_red, eta = gamma_n/(2 m_red),
+omega = sqrt(omega_0^2 - eta^2), contact time t_c = pi/omega, restitution e_n = exp(-pi eta/omega).
+The default step is t_c(smallest pair) / dt_per_contact; a step above t_c/5 is refused.
+Units SI: N/m, kg/s, kg, s.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .scene import Scene, SceneError
+
+
+def _omega(k_n: float, gamma_n: float, m_red: float) -> float:
+    """Damped angular frequency (rad/s); SceneError when the contact is overdamped."""
+    eta = gamma_n / (2.0 * m_red)
+    w2 = k_n / m_red - eta * eta
+    if not w2 > 0:
+        raise SceneError(
+            f"[contact] gamma_n = {gamma_n!r}: overdamped for reduced mass {m_red:.4g} kg "
+            f"(gamma_n/(2 m_red) = {eta:.4g} 1/s >= sqrt(k_n/m_red) = "
+            f"{math.sqrt(k_n / m_red):.4g} 1/s); a contact never ends, so there is no t_c (kg/s)")
+    return math.sqrt(w2)
+
+
+def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
+    """t_c = pi/omega (s) for spring k_n (N/m), damping gamma_n (kg/s), reduced mass m_red (kg)."""
+    return math.pi / _omega(k_n, gamma_n, m_red)
+
+
+def restitution(k_n: float, gamma_n: float, m_red: float) -> float:
+    """Normal restitution e_n = exp(-pi eta/omega) (dimensionless), eta = gamma_n/(2 m_red)."""
+    return math.exp(-math.pi * gamma_n / (2.0 * m_red) / _omega(k_n, gamma_n, m_red))
+
+
+def smallest_reduced_mass(scene: Scene) -> float:
+    """Smallest reduced mass (kg) over pairs of free particles: that of the two lightest ones.
+
+    A lighter partner always lowers m_red, so the two lightest particles decide; one particle of a
+    species cannot pair with itself. With a single free particle the only partners are walls
+    (infinitely massive), so m_red = m.
+    """
+    if scene.particles is not None:
+        m = np.asarray(scene.particles.mass)
+        if m.size == 1:
+            return float(m[0])
+        a, b = np.partition(m, 1)[:2]
+    else:
+        ms = sorted((s.mass, s.count) for s in scene.species if s.count > 0)
+        if ms[0][1] >= 2:
+            a = b = ms[0][0]
+        elif len(ms) > 1:
+            a, b = ms[0][0], ms[1][0]
+        else:
+            return float(ms[0][0])
+    return float(a * b / (a + b))
+
+
+def smallest_contact_time(scene: Scene) -> float:
+    """t_c (s) of the pair with the smallest reduced mass; gamma_n counts only if the scene
+    switches normal damping on."""
+    c = scene.contact
+    gamma = c.gamma_n if scene.effects.normal_damping else 0.0
+    return contact_time(c.k_n, gamma, smallest_reduced_mass(scene))
+
+
+def resolve_dt(scene: Scene) -> float:
+    """The run's time step (s): [time] dt, or t_c / dt_per_contact when dt = "auto".
+
+    Raises SceneError when dt > t_c/5: a contact would be resolved by fewer than five steps.
+    """
+    t_c = smallest_contact_time(scene)
+    dt = scene.time.dt if scene.time.dt is not None else t_c / scene.time.dt_per_contact
+    if dt > t_c / 5.0:
+        raise SceneError(
+            f"[time] dt = {dt:.6g} s exceeds t_c/5 = {t_c / 5.0:.3g} s (t_c = {t_c:.4g} s for the "
+            'smallest pair); use a smaller dt or dt = "auto"')
+    return dt

@@ -1,0 +1,54 @@
+"""Couette boundaries: prescribed motion of the two rings and their glued wall disks.
+
+Stage: boundaries. The inner ring (radius r_in) turns counter-clockwise at omega_in from t = 0.
+The outer ring shrinks from r_out0 to r_out during [0, t_comp] with a cosine ramp (zero speed at
+both ends, so the packing is not jolted when the wall stops), then stays fixed.
+Wall disks (d = 2.5 mm by default) sit with their centres on the ring lines, evenly spaced;
+they are infinitely massive bodies that move with their ring.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+
+@nb.njit(cache=True)
+def outer_radius(t, prm):
+    """Outer ring radius (m) and its rate (m/s) at time t (s)."""
+    if t >= prm.t_comp or prm.t_comp <= 0.0:
+        return prm.r_out, 0.0
+    c = 0.5 * (1.0 + math.cos(math.pi * t / prm.t_comp))
+    rate = -0.5 * math.pi / prm.t_comp * math.sin(math.pi * t / prm.t_comp)
+    return prm.r_out + (prm.r_out0 - prm.r_out) * c, (prm.r_out0 - prm.r_out) * rate
+
+
+@nb.njit(cache=True)
+def place_wall_disks(ps, first, last, t, prm):
+    """Set position, velocity and spin of wall disks ps[first:last] at time t."""
+    r_o, r_o_dot = outer_radius(t, prm)
+    for k in range(first, last):
+        if ps.kind[k] == 1:
+            phi = ps.phi0[k] + prm.omega_in * t
+            c, s = math.cos(phi), math.sin(phi)
+            ps.x[k, 0] = prm.r_in * c
+            ps.x[k, 1] = prm.r_in * s
+            ps.v[k, 0] = -prm.omega_in * prm.r_in * s
+            ps.v[k, 1] = prm.omega_in * prm.r_in * c
+            ps.omega[k] = prm.omega_in  # glued: turns with the ring
+            ps.theta[k] = prm.omega_in * t
+        else:
+            c, s = math.cos(ps.phi0[k]), math.sin(ps.phi0[k])
+            ps.x[k, 0] = r_o * c
+            ps.x[k, 1] = r_o * s
+            ps.v[k, 0] = r_o_dot * c
+            ps.v[k, 1] = r_o_dot * s
+            ps.omega[k] = 0.0
+
+
+def wall_disk_angles(radius: float, spacing: float) -> np.ndarray:
+    """Evenly spaced angles (rad) for disks along a ring, about ``spacing`` (m) apart."""
+    n = max(int(round(2.0 * math.pi * radius / spacing)), 1)
+    return 2.0 * math.pi * np.arange(n) / n

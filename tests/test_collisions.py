@@ -1,0 +1,121 @@
+"""Head-on collisions against the analytic damped-spring solution (SPEC §3), for disk-disk,
+disk-flat-ring and disk-wall-disk contacts; the measured order of convergence in dt."""
+
+import math
+
+import numpy as np
+import pytest
+from helpers import D_LARGE, D_SMALL, M_LARGE, M_SMALL, analytic_collision, couette_scene, \
+    free_scene
+
+from pardem.simulation import Simulation
+
+
+def measure(sim, overlap, rel_speed, max_steps=200_000):
+    """Step until the contact is over; return (contact time, restitution). Contact start and end
+    are the zero crossings of the overlap, linearly interpolated between steps."""
+    dt = sim.dt
+    d_prev, v_in, t_start = overlap(sim), rel_speed(sim), None
+    for k in range(1, max_steps):
+        sim.advance_steps(1)
+        d = overlap(sim)
+        if t_start is None and d > 0 >= d_prev:
+            t_start = (k - 1 + d_prev / (d_prev - d)) * dt
+        elif t_start is not None and d <= 0 < d_prev:
+            t_end = (k - 1 + d_prev / (d_prev - d)) * dt
+            return t_end - t_start, -rel_speed(sim) / v_in
+        d_prev = d
+    raise AssertionError("collision did not finish")
+
+
+def two_disks(d, m, dt, phase=0.0):
+    """Two equal disks approaching head on at 0.1 m/s; ``phase`` (0..1) shifts the moment of
+    first contact by that fraction of a step."""
+    step = analytic_collision(m / 2)[0] / 50 if dt == "auto" else dt  # auto: asserted below
+    gap = 1e-4 + phase * 0.1 * step
+    ps = [{"x": -(d + gap) / 2, "y": 0.0, "vx": 0.05, "diameter": d, "mass": m},
+          {"x": (d + gap) / 2, "y": 0.0, "vx": -0.05, "diameter": d, "mass": m}]
+    sim = Simulation(free_scene(ps, effects={"normal_damping": True}, time={"dt": dt}))
+    return (sim, lambda s: d - (s.ps.x[1, 0] - s.ps.x[0, 0]),
+            lambda s: s.ps.v[0, 0] - s.ps.v[1, 0])
+
+
+PHASES = np.arange(8) / 8  # where, between two steps, the contact begins
+
+
+def errors(d, m, dt):
+    """Relative errors of t_c and e_n for each entry phase."""
+    tc, e = analytic_collision(m / 2)
+    out = np.array([measure(*two_disks(d, m, dt, p)) for p in PHASES])
+    return out[:, 0] / tc - 1, out[:, 1] / e - 1
+
+
+@pytest.mark.parametrize("d,m,tc_spec,e_spec", [(D_SMALL, M_SMALL, 2.177e-3, 0.2223),
+                                                (D_LARGE, M_LARGE, 2.769e-3, 0.3417)])
+def test_head_on_converges_to_analytic(d, m, tc_spec, e_spec):
+    tc, e = analytic_collision(m / 2)
+    assert tc == pytest.approx(tc_spec, abs=0.5e-6) and e == pytest.approx(e_spec, abs=0.5e-4)
+    sim = two_disks(d, m, "auto")[0]
+    assert sim.dt == pytest.approx(tc / 50, rel=1e-12)
+    et, ee = errors(d, m, "auto")  # default dt = t_c/50: within 5 % for every entry phase
+    print(f"\n d = {d}: dt = t_c/50: max |err t_c| {abs(et).max():.2e}, max |err e_n| "
+          f"{abs(ee).max():.2e}")
+    assert abs(et).max() < 0.05 and abs(ee).max() < 0.05
+    et, ee = errors(d, m, tc / 2000)  # fine dt: within 0.1 %
+    print(f" dt = t_c/2000: max |err t_c| {abs(et).max():.2e}, max |err e_n| {abs(ee).max():.2e}")
+    assert abs(et).max() < 1e-3 and abs(ee).max() < 1e-3
+
+
+def test_order_of_convergence_in_dt():
+    """Worst-phase errors at t_c/50 .. t_c/800. Measured here: t_c second order; e_n about first
+    order (its error comes from the step in which the contact begins or ends)."""
+    tc, _ = analytic_collision(M_SMALL / 2)
+    rows = []
+    for n in (50, 100, 200, 400, 800):
+        et, ee = errors(D_SMALL, M_SMALL, tc / n)
+        rows.append((n, abs(et).max(), abs(ee).max()))
+    order_t = [math.log2(rows[k][1] / rows[k + 1][1]) for k in range(len(rows) - 1)]
+    order_e = math.log2(rows[1][2] / rows[-1][2]) / (len(rows) - 2)
+    print("\n dt=t_c/N  max err t_c  max err e_n")
+    for n, et, ee in rows:
+        print(f" {n:5d}  {et:9.2e}  {ee:9.2e}")
+    print(" orders t_c:", np.round(order_t, 2), f" e_n (t_c/100 .. t_c/800): {order_e:.2f}")
+    assert min(order_t) > 1.8
+    assert order_e > 0.8
+
+
+def wall_setup(target: str, dt="auto"):
+    """One small disk moving radially into the inner ring: between two wall disks (flat ring
+    surface) or straight at a wall disk. Ring at rest, no compression."""
+    spacing = 0.05  # few wall disks, so the flat surface between them is wide
+    sc = couette_scene(counts=(1, 0), geometry={"omega_inner": 0.0, "compression_time": 0.0,
+                                                "outer_start_radius": 0.2525,
+                                                "wall_particle_spacing": spacing},
+                       effects={"tangential_friction": False, "bottom_friction": False},
+                       time={"dt": dt})
+    sim = Simulation(sc)
+    a, r_in, aw = D_SMALL / 2, 0.1035, 1.25e-3
+    n_in = int(np.sum(sim.ps.kind == 1))
+    phi = math.pi / n_in if target == "flat" else 0.0
+    r0 = r_in + a + 1e-4 + (aw if target == "disk" else 0.0)
+    e_r = np.array([math.cos(phi), math.sin(phi)])
+    sim.ps.x[0] = r0 * e_r
+    sim.ps.v[0] = -0.05 * e_r
+    sim.refresh()
+    wall = np.nonzero(sim.ps.kind == 1)[0][0]
+    if target == "flat":
+        ov = lambda s: a - (np.hypot(*s.ps.x[0]) - r_in)  # noqa: E731
+    else:
+        ov = lambda s: a + aw - np.hypot(*(s.ps.x[0] - s.ps.x[wall]))  # noqa: E731
+    return sim, ov, lambda s: -(s.ps.v[0] @ e_r)
+
+
+@pytest.mark.parametrize("target", ["flat", "disk"])
+def test_wall_collision_restitution_infinite_mass_partner(target):
+    tc, e = analytic_collision(M_SMALL)  # m_red = m for an infinitely massive partner
+    sim, ov, vr = wall_setup(target)
+    assert sim.dt == pytest.approx(tc / 50, rel=1e-12)  # one disk: the smallest pair is disk-wall
+    tcm, em = measure(sim, ov, vr)
+    assert abs(tcm / tc - 1) < 0.05 and abs(em / e - 1) < 0.05
+    tcf, ef = measure(*wall_setup(target, dt=tc / 2000))
+    assert abs(tcf / tc - 1) < 1e-3 and abs(ef / e - 1) < 1e-3

@@ -1,0 +1,98 @@
+"""Invariants: momentum and angular momentum in frictional collisions, energy in elastic dense
+scenes (second order in dt), bottom friction deceleration and rest."""
+
+import math
+
+import numpy as np
+import pytest
+from helpers import D_SMALL, M_SMALL, couette_scene, dense_packing, free_scene
+
+from pardem.simulation import Simulation
+
+
+def momenta(sim):
+    ps, n = sim.ps, sim.n_free
+    m = ps.mass[:n]
+    p = (m[:, None] * ps.v[:n]).sum(axis=0)
+    inertia = m * (2 * ps.radius[:n]) ** 2 / 8
+    lz = (m * (ps.x[:n, 0] * ps.v[:n, 1] - ps.x[:n, 1] * ps.v[:n, 0])).sum()
+    return p, lz + (inertia * ps.omega[:n]).sum()
+
+
+def test_oblique_frictional_collision_conserves_momenta():
+    ps = [{"x": 0.0, "y": 0.0, "vx": 0.2, "vy": 0.0, "omega": 3.0, "diameter": D_SMALL,
+           "mass": M_SMALL},
+          {"x": 0.0105, "y": 0.004, "vx": -0.1, "vy": 0.02, "omega": -5.0, "diameter": 8.99e-3,
+           "mass": 0.490e-3}]
+    sim = Simulation(free_scene(ps, effects={"normal_damping": True, "tangential_friction": True,
+                                             "rotation": True}))
+    p0, l0 = momenta(sim)
+    touched = 0
+    for _ in range(400):
+        sim.advance_steps(1)
+        touched += sim.contacts()["ids"].shape[0]
+        p, lz = momenta(sim)
+        np.testing.assert_allclose(p, p0, rtol=0, atol=1e-16)  # |p| ~ 1e-5 kg m/s
+        assert abs(lz - l0) < 1e-16 + 1e-12 * abs(l0)
+    assert touched > 20  # the disks really were in contact for many steps
+    assert abs(sim.ps.omega[0] - 3.0) > 0.1  # and friction changed their spins
+
+
+def energy_error(dt_factor: float, steps: int) -> float:
+    """Worst relative drift of the total energy of an elastic gas of 250 disks (area fraction
+    0.6) confined between two fixed rings, everything dissipative switched off."""
+    g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.09,
+         "compression_time": 0.0, "omega_inner": 0.0}
+    off = {k: False for k in ("normal_damping", "tangential_friction", "rotation",
+                              "bottom_friction")}
+    sim = Simulation(couette_scene(counts=(250, 0), geometry=g, effects=off,
+                                   time={"dt_per_contact": 50 / dt_factor}))
+    rng = np.random.default_rng(5)
+    sim.ps.v[: sim.n_free] = rng.normal(0.0, 0.1, (sim.n_free, 2))
+    sim.refresh()
+    e0 = sim.total_energy()
+    worst, contacts = 0.0, 0
+    for _ in range(50):
+        sim.advance_steps(steps // 50)
+        worst = max(worst, abs(sim.total_energy() / e0 - 1))
+        contacts += sim.contacts()["ids"].shape[0]
+    assert contacts > 100  # collisions all the time
+    return worst
+
+
+def test_elastic_dense_scene_conserves_energy_second_order():
+    e1 = energy_error(1.0, 10_000)
+    e2 = energy_error(0.5, 20_000)
+    print(f"\n energy error over 1e4 steps: dt=t_c/50 {e1:.3e}, dt=t_c/100 {e2:.3e}, "
+          f"ratio {e1 / e2:.2f} (order {math.log2(e1 / e2):.2f})")
+    assert e1 < 1e-3
+    assert e1 / e2 > 3.5  # at least second order (measured: ~7.8, i.e. order ~3)
+
+
+def test_momentum_of_a_free_elastic_cluster_is_conserved():
+    sim = Simulation(free_scene(dense_packing(12, 12, speed=0.05), effects={"rotation": True,
+                                "tangential_friction": True, "normal_damping": True}))
+    p0, l0 = momenta(sim)
+    sim.advance_steps(5000)
+    p, lz = momenta(sim)
+    assert np.all(np.abs(p - p0) < 1e-17 * 144) and abs(lz - l0) < 1e-18 * 144
+
+
+def test_bottom_friction_decelerates_at_mu_b_g_then_rests_exactly():
+    v0 = 2e-3
+    sc = free_scene([{"x": 0.0, "y": 0.0, "vx": v0, "vy": -v0 / 2, "diameter": D_SMALL,
+                      "mass": M_SMALL}], effects={"bottom_friction": True},
+                    contact={"mu_bottom": 2e-5, "gravity": 9.81})
+    sim = Simulation(sc)
+    decel = 2e-5 * 9.81
+    speed0 = math.hypot(v0, v0 / 2)
+    n_stop = speed0 / decel / sim.dt
+    sim.advance_steps(int(n_stop * 0.5))
+    speed = math.hypot(*sim.ps.v[0])
+    assert speed == pytest.approx(speed0 - decel * int(n_stop * 0.5) * sim.dt, rel=1e-9)
+    sim.advance_steps(int(n_stop * 0.5) + 10)
+    x_rest = sim.ps.x[0].copy()
+    assert np.all(sim.ps.v[0] == 0.0)
+    sim.advance_steps(1000)
+    assert np.all(sim.ps.v[0] == 0.0) and np.all(sim.ps.x[0] == x_rest)
+    assert np.all(np.isfinite(sim.ps.f[0]))

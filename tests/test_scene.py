@@ -1,0 +1,416 @@
+"""Scene loading, validation, TOML round trip, fingerprint and time-step resolution."""
+
+from __future__ import annotations
+
+import copy
+import math
+import re
+import time
+from pathlib import Path
+
+import h5py
+import numpy as np
+import pytest
+
+from pardem.scene import (
+    FreeParticles,
+    Scene,
+    SceneError,
+    load_scene,
+    scene_from_dict,
+    scene_to_toml,
+    write_scene,
+)
+from pardem.timestep import (
+    contact_time,
+    resolve_dt,
+    restitution,
+    smallest_contact_time,
+    smallest_reduced_mass,
+)
+
+ROOT = Path(__file__).resolve().parents[1]
+RUN_SCRIPTS = sorted((ROOT / "run_scripts").glob("*.toml"))
+D_S, M_S, D_L, M_L = 7.42e-3, 0.275e-3, 8.99e-3, 0.490e-3
+
+
+def couette_dict() -> dict:
+    return {"scene": {"name": "c", "kind": "couette", "seed": 2},
+            "geometry": {},
+            "species": [{"name": "small", "diameter": D_S, "mass": M_S, "count": 2545},
+                        {"name": "large", "diameter": D_L, "mass": M_L, "count": 394}],
+            "contact": {}, "effects": {}, "time": {"dt": "auto", "end": 1.0}}
+
+
+def free_dict() -> dict:
+    return {"scene": {"name": "f", "kind": "free"},
+            "particles": [{"x": -5e-3, "y": 0.0, "vx": 0.05, "diameter": D_S, "mass": M_S},
+                          {"x": 5e-3, "y": 0.0, "vx": -0.05, "diameter": D_S, "mass": M_S}],
+            "time": {"end": 0.05}}
+
+
+def mutate(base: dict, path: str, value) -> dict:
+    """Set d[a][b]... (list indices as ints); value DELETE removes the key."""
+    d = copy.deepcopy(base)
+    *head, last = [int(p) if p.isdigit() else p for p in path.split(".")]
+    target = d
+    for p in head:
+        target = target[p]
+    if value is DELETE:
+        del target[last]
+    else:
+        target[last] = value
+    return d
+
+
+DELETE = object()
+
+BAD_COUETTE = [
+    ("contact.k_n", -1.0, r"[contact] k_n = -1.0: must be > 0 (N/m)"),
+    ("contact.k_n", 0, r"[contact] k_n = 0: must be > 0"),
+    ("contact.height", 0.0, r"[contact] height"),
+    ("contact.gravity", -9.81, r"[contact] gravity"),
+    ("contact.gamma_n", -0.1, r"[contact] gamma_n = -0.1: must be >= 0"),
+    ("contact.k_t", -1.0, r"[contact] k_t"),
+    ("contact.mu", -0.1, r"[contact] mu = -0.1"),
+    ("contact.mu_bottom", -1e-5, r"[contact] mu_bottom"),
+    ("contact.k_n", True, r"[contact] k_n = true: expected a number"),
+    ("contact.k_n", "352", r"[contact] k_n = '352': expected a number (N/m)"),
+    ("contact.k_n", float("nan"), r"[contact] k_n = nan: must be finite"),
+    ("contact.k_nn", 1.0, r"[contact] unknown key 'k_nn'; allowed: k_n, gamma_n"),
+    ("time.end", "abc", r"[time] end = 'abc': expected a number (s)"),
+    ("time.end", 0.0, r"[time] end"),
+    ("time.dt", -1e-5, r"[time] dt = -1e-05: must be > 0"),
+    ("time.dt", "fast", "[time] dt = 'fast': expected a number (s) or \"auto\""),
+    ("time.dt_per_contact", 4, r"[time] dt_per_contact = 4: must be >= 5"),
+    ("effects.rotation", 1, r"[effects] rotation = 1: expected a boolean"),
+    ("effects.rotation", "true", r"[effects] rotation"),
+    ("effects.spin", True, r"[effects] unknown key 'spin'"),
+    ("geometry.outer_radiuss", 0.3, r"[geometry] unknown key 'outer_radiuss'; allowed: inner_radius,"),
+    ("geometry.inner_radius", 0.0, r"[geometry] inner_radius"),
+    ("geometry.outer_radius", 0.1, r"[geometry] outer_radius = 0.1: .*R_o <= R_i"),
+    ("geometry.outer_start_radius", 0.2, r"[geometry] outer_start_radius = 0.2: outer start radius below"),
+    ("geometry.compression_time", -1.0, r"[geometry] compression_time"),
+    ("geometry.wall_particle_diameter", 0.0, r"[geometry] wall_particle_diameter"),
+    ("geometry.wall_particle_spacing", 1e-3, r"[geometry] wall_particle_spacing = 0.001: must be >="),
+    ("geometry", 3, r"[geometry]: expected a table"),
+    ("species.0.diameter", -7e-3, r"[[species]] #0 diameter = -0.007: must be > 0 (m)"),
+    ("species.1.mass", 0.0, r"[[species]] #1 mass"),
+    ("species.0.count", -1, r"[[species]] #0 count = -1: must be >= 0"),
+    ("species.0.count", 2.5, r"[[species]] #0 count = 2.5: expected an integer"),
+    ("species.0.count", 2545.0, r"[[species]] #0 count = 2545.0: expected an integer"),
+    ("species.1.name", "small", r"[[species]] #1 name = 'small': duplicate species name"),
+    ("species.0.colour", "red", r"[[species]] #0 unknown key 'colour'"),
+    ("species.0.mass", DELETE, r"[[species]] #0 mass: missing"),
+    ("species", [], r"[[species]]"),
+    ("species", DELETE, r"[[species]] missing"),
+    ("scene.kind", "box", r"[scene] kind = 'box': must be one of 'couette', 'free'"),
+    ("scene.kind", DELETE, r"[scene] kind: missing"),
+    ("scene", DELETE, r"[scene] table missing"),
+    ("scene.seed", -1, r"[scene] seed = -1"),
+    ("scene.seed", 1.5, r"[scene] seed = 1.5: expected an integer"),
+    ("output.snapshot_interval", 0.0, r"[output] snapshot_interval"),
+    ("output.checkpoint_interval", -1.0, r"[output] checkpoint_interval"),
+    ("output.contacts", "yes", r"[output] contacts"),
+    ("neighbors.skin", 0.0, r"[neighbors] skin = 0.0: must be > 0"),
+    ("neighbors.skin", "big", r"[neighbors] skin"),
+    ("averaging.start", -1.0, r"[averaging] start"),
+    ("averaging.sample_interval", 0.0, r"[averaging] sample_interval"),
+    ("averaging.ring_width", 0.0, r"[averaging] ring_width"),
+    ("averaging.weighting", "area", r"[averaging] weighting = 'area': must be one of 'slice'"),
+    ("particles", [{"x": 0.0, "y": 0.0, "diameter": D_S, "mass": M_S}],
+     r"[[particles]]: not allowed in a couette scene"),
+    ("particles_file", "init.csv", r"particles_file: not allowed in a couette scene"),
+    ("bogus", {}, r"unknown top-level table or key 'bogus'"),
+]
+
+
+@pytest.mark.parametrize("path,value,message", BAD_COUETTE,
+                         ids=[f"{p}={v!r}"[:40] for p, v, _ in BAD_COUETTE])
+def test_bad_couette_value(path, value, message):
+    d = couette_dict()
+    d["neighbors"] = {}
+    d["output"] = {}
+    d["averaging"] = {}
+    with pytest.raises(SceneError, match=re.escape(message).replace(r"\.\*", ".*")):
+        scene_from_dict(mutate(d, path, value))
+
+
+@pytest.mark.parametrize("changes,message", [
+    ({"contact.k_t": 0.0}, "[contact] k_t = 0.0: must be > 0 when [effects] tangential_friction"),
+    ({"averaging": {"start": 10.0, "end": 5.0}}, "[averaging] end = 5.0: must be > start = 10.0"),
+    ({"geometry.outer_radius": 0.108}, "[geometry] outer_radius - inner_radius"),
+    ({"species.0.count": 0, "species.1.count": 0}, "total count must be >= 1"),
+])
+def test_bad_couette_combination(changes, message):
+    d = couette_dict()
+    for path, value in changes.items():
+        d = mutate(d, path, value)
+    with pytest.raises(SceneError, match=re.escape(message)):
+        scene_from_dict(d)
+
+
+def test_k_t_zero_allowed_without_friction():
+    d = mutate(mutate(couette_dict(), "contact.k_t", 0.0), "effects.tangential_friction", False)
+    assert scene_from_dict(d).contact.k_t == 0.0
+    d = mutate(mutate(couette_dict(), "contact.k_t", 0.0), "contact.mu", 0.0)
+    assert scene_from_dict(d).contact.mu == 0.0
+
+
+BAD_FREE = [
+    ("species", [{"name": "s", "diameter": D_S, "mass": M_S, "count": 1}],
+     "[[species]]: not allowed in a free scene"),
+    ("geometry", {}, "[geometry]: not allowed in a free scene"),
+    ("particles", DELETE, "[[particles]] missing"),
+    ("particles_file", "init.csv", "[[particles]] and particles_file: give one or the other"),
+    ("particles.1.diameter", -1.0, "[[particles]] #1 diameter = -1.0: must be > 0 (m)"),
+    ("particles.0.mass", 0, "[[particles]] #0 mass = 0.0: must be > 0 (kg)"),
+    ("particles.0.mass", DELETE, "[[particles]] #0 mass: missing"),
+    ("particles.1.vx", "fast", "[[particles]] #1 vx = 'fast': expected a number (m/s)"),
+    ("particles.1.vx", False, "[[particles]] #1 vx = false: expected a number"),
+    ("particles.0.z", 0.0, "[[particles]] #0 unknown key 'z'"),
+    ("particles.1.x", -5e-3, "[[particles]] #0 and #1: identical positions"),
+    ("particles.1.x", 0.0, "[[particles]] #0 and #1 overlap by"),
+    ("particles", [], "[[particles]]: expected a non-empty array of tables"),
+]
+
+
+@pytest.mark.parametrize("path,value,message", BAD_FREE,
+                         ids=[f"{p}={v!r}"[:40] for p, v, _ in BAD_FREE])
+def test_bad_free_value(path, value, message):
+    with pytest.raises(SceneError, match=re.escape(message)):
+        scene_from_dict(mutate(free_dict(), path, value))
+
+
+def test_small_overlap_is_accepted_large_refused():
+    d = free_dict()
+    d["particles"][0]["x"] = -D_S / 2 + 0.004 * D_S  # 0.8% overlap
+    d["particles"][1]["x"] = D_S / 2 - 0.004 * D_S
+    assert scene_from_dict(d).n_free == 2
+    d["particles"][1]["x"] = D_S / 2 - 0.007 * D_S  # 1.1% overlap
+    with pytest.raises(SceneError, match=r"#0 and #1 overlap by .*% of the smaller diameter"):
+        scene_from_dict(d)
+
+
+def test_overlap_search_finds_pair_in_large_packing_quickly():
+    n_side = 320  # 102 400 disks on a square lattice, touching
+    i, j = np.meshgrid(np.arange(n_side), np.arange(n_side), indexing="ij")
+    x, y = (i.ravel() * D_S).astype(float), (j.ravel() * D_S).astype(float)
+    rows = [{"x": a, "y": b, "diameter": D_S, "mass": M_S}
+            for a, b in zip(x.tolist(), y.tolist(), strict=True)]
+    d = {"scene": {"name": "big", "kind": "free"}, "particles": rows}
+    t0 = time.perf_counter()
+    scene = scene_from_dict(d)
+    assert time.perf_counter() - t0 < 1.0
+    assert scene.n_free == n_side**2
+    rows[50_000]["y"] = rows[50_001]["y"] - 0.2 * D_S  # deep overlap with its lattice neighbour
+    with pytest.raises(SceneError, match=r"#50000 and #50001 overlap"):
+        scene_from_dict(d)
+
+
+def test_free_defaults_and_readonly_arrays():
+    s = scene_from_dict(free_dict())
+    assert s.geometry is None and s.species == () and s.averaging is None
+    assert s.neighbors.skin is None and s.time.dt is None
+    assert s.particles.vy.tolist() == [0.0, 0.0] and s.particles.omega.dtype == np.float64
+    assert s.effects.normal_damping and s.effects.rotation and not s.effects.clip_attractive_normal
+    assert s.n_free == 2 and s.min_free_diameter == D_S
+    with pytest.raises(ValueError):
+        s.particles.x[0] = 1.0
+    assert s == scene_from_dict(free_dict()) and hash(s) == hash(scene_from_dict(free_dict()))
+
+
+def test_couette_defaults_and_ints_become_floats():
+    s = scene_from_dict(mutate(couette_dict(), "contact.k_n", 352))
+    assert isinstance(s.contact.k_n, float) and s.contact.k_n == 352.0
+    assert s.geometry.inner_radius == 0.1035 and s.geometry.outer_start_radius == 0.33
+    assert s.contact.mu_bottom == 2e-5 and s.output.snapshot_interval == 1.0
+    assert s.n_free == 2939 and s.min_free_diameter == D_S and s.particles is None
+    assert scene_from_dict({**couette_dict(), "neighbors": {"skin": 1e-4}}).neighbors.skin == 1e-4
+
+
+@pytest.mark.parametrize("path", RUN_SCRIPTS, ids=[p.name for p in RUN_SCRIPTS])
+def test_shipped_scenes_load(path):
+    s = load_scene(path)
+    assert s.info.kind == "couette" and s.source == str(path)
+    assert s.averaging is not None and s.averaging.weighting == "slice"
+    assert resolve_dt(s) > 0
+
+
+def test_shipped_scene_values():
+    names = {p.stem for p in RUN_SCRIPTS}
+    assert {"couette_A", "couette_B", "couette_C", "couette_quick"} <= names
+    counts = {"A": (2511, 400), "B": (2545, 394), "C": (2555, 399)}
+    for k, (ns, nl) in counts.items():
+        s = load_scene(ROOT / "run_scripts" / f"couette_{k}.toml")
+        assert s.info.name == f"couette-{k}"
+        assert [(sp.count, sp.diameter, sp.mass) for sp in s.species] == [(ns, D_S, M_S),
+                                                                          (nl, D_L, M_L)]
+        assert s.time.end == 239.0 and (s.averaging.start, s.averaging.end) == (180.0, 239.0)
+    q = load_scene(ROOT / "run_scripts" / "couette_quick.toml")
+    b = load_scene(ROOT / "run_scripts" / "couette_B.toml")
+    assert q.species == b.species and q.contact == b.contact and q.geometry == b.geometry
+    assert q.time.end == 6.0 and q.averaging.sample_interval == 0.05
+
+
+@pytest.mark.parametrize("maker", ["couette", "free", "B", "two_small"])
+def test_toml_round_trip(tmp_path, maker):
+    if maker == "couette":
+        s = scene_from_dict({**couette_dict(), "averaging": {"weighting": "exact"}})
+    elif maker == "free":
+        d = free_dict()
+        d["particles"][0].update(x=-0.1 / 3, omega=1e-300)
+        d["scene"]["name"] = 'odd "name" \\ with\tcontrol ü'
+        d["time"]["dt"] = 1.234567890123e-5
+        s = scene_from_dict(d)
+    elif maker == "B":
+        s = load_scene(ROOT / "run_scripts" / "couette_B.toml")
+    else:
+        s = load_scene(ROOT / "tests" / "scenes" / "two_small.toml")
+    out = tmp_path / "scene.toml"
+    write_scene(s, out)
+    assert not (tmp_path / "scene.toml.tmp").exists()
+    back = load_scene(out)
+    assert back.to_dict() == s.to_dict()
+    assert back.fingerprint() == s.fingerprint()
+    assert back == s
+    assert scene_to_toml(back) == scene_to_toml(s)
+
+
+def test_to_dict_layout():
+    d = scene_from_dict(free_dict()).to_dict()
+    assert d["time"]["dt"] == "auto" and d["neighbors"]["skin"] == "auto"
+    assert d["particles"][1] == {"x": 5e-3, "y": 0.0, "vx": -0.05, "vy": 0.0, "omega": 0.0,
+                                 "diameter": D_S, "mass": M_S}
+    assert "geometry" not in d and "species" not in d and "averaging" not in d
+    c = scene_from_dict(couette_dict()).to_dict()
+    assert c["species"][1]["count"] == 394 and "particles" not in c
+
+
+def test_fingerprint_sensitivity():
+    base = scene_from_dict(couette_dict()).fingerprint()
+    assert len(base) == 64
+    assert scene_from_dict(mutate(couette_dict(), "contact.k_n", 352.2)).fingerprint() != base
+    assert scene_from_dict(mutate(couette_dict(), "scene.seed", 3)).fingerprint() != base
+    same = [mutate(couette_dict(), "time.end", 500.0), mutate(couette_dict(), "scene.name", "z"),
+            {**couette_dict(), "output": {"snapshot_interval": 0.2, "contacts": False}},
+            {**couette_dict(), "averaging": {"start": 1.0, "end": 2.0}}]
+    for d in same:
+        assert scene_from_dict(d).fingerprint() == base
+
+
+def test_particles_file_csv_and_h5(tmp_path):
+    rng = np.random.default_rng(4)
+    n = 30
+    cols = {"x": np.arange(n) * 0.01, "y": rng.uniform(-1, 1, n), "vx": rng.normal(size=n),
+            "vy": rng.normal(size=n), "omega": rng.normal(size=n),
+            "diameter": np.where(np.arange(n) % 3, D_S, D_L), "mass": np.full(n, M_S)}
+    rows = [{k: float(cols[k][i]) for k in cols} for i in range(n)]
+    ref = scene_from_dict({"scene": {"name": "f", "kind": "free"}, "particles": rows})
+    lines = [",".join(cols)] + [",".join(repr(float(cols[k][i])) for k in cols)
+                                for i in range(n)]
+    (tmp_path / "init.csv").write_text("\n".join(lines) + "\n")
+    with h5py.File(tmp_path / "init.h5", "w") as f:
+        for k, v in cols.items():
+            f[k] = v
+    for name in ("init.csv", "init.h5"):
+        text = f'particles_file = "{name}"\n[scene]\nname = "f"\nkind = "free"\n'
+        (tmp_path / "s.toml").write_text(text)
+        s = load_scene(tmp_path / "s.toml")
+        assert s.particles == ref.particles
+        assert s.to_dict() == ref.to_dict() and s.fingerprint() == ref.fingerprint()
+
+
+def test_particles_file_errors(tmp_path):
+    def load(name, body=None):
+        if body is not None:
+            (tmp_path / name).write_text(body)
+        return scene_from_dict({"scene": {"name": "f", "kind": "free"}, "particles_file": name},
+                               base_dir=tmp_path)
+
+    with pytest.raises(SceneError, match=r"particles_file = 'nope.csv': no such file"):
+        load("nope.csv")
+    with pytest.raises(SceneError, match=r"required column 'mass' missing"):
+        load("a.csv", "x,y,diameter\n0,0,0.007\n")
+    with pytest.raises(SceneError, match=r"unknown column 'z'"):
+        load("b.csv", "x,y,z,diameter,mass\n0,0,0,0.007,0.0003\n")
+    with pytest.raises(SceneError, match=r"row #1 diameter = -0.007: must be > 0"):
+        load("c.csv", "x,y,diameter,mass\n0,0,0.007,0.0003\n1,0,-0.007,0.0003\n")
+    with pytest.raises(SceneError, match=r"header row and at least one particle"):
+        load("d.csv", "x,y,diameter,mass\n")
+    with pytest.raises(SceneError, match=r"unreadable CSV"):
+        load("e.csv", "x,y,diameter,mass\n0,zero,0.007,0.0003\n")
+    with pytest.raises(SceneError, match=r"expected a .csv or .h5"):
+        load("f.txt", "x\n")
+
+
+def test_load_scene_file_errors(tmp_path):
+    with pytest.raises(SceneError, match=re.escape(str(tmp_path / "missing.toml"))):
+        load_scene(tmp_path / "missing.toml")
+    bad = tmp_path / "scene.toml"
+    bad.write_text("[scene\nkind = 'free'\n")
+    with pytest.raises(SceneError, match=r"scene.toml: malformed TOML: "):
+        load_scene(bad)
+    bad.write_text("[scene]\nkind = 'couette'\n[[species]]\nname='s'\ndiameter=0.007\n"
+                   "mass=1e-3\ncount=10\n[contact]\nk_n = -1.0\n")
+    with pytest.raises(SceneError, match=re.escape("[contact] k_n = -1.0: must be > 0 (N/m)")):
+        load_scene(bad)
+    bad.write_text("[scene]\nkind = 'couette'\n[[species]]\nname='s'\ndiameter=0.007\n"
+                   "mass=1e-3\ncount=10\n")
+    assert load_scene(bad).info.name == "scene"  # name defaults to the file stem
+
+
+def test_analytic_contact_values():
+    for m, t_c, e_n in ((M_S, 2.177e-3, 0.2223), (M_L, 2.769e-3, 0.3417)):
+        # SPEC values are rounded to 4 digits
+        assert contact_time(352.1, 0.19, m / 2) == pytest.approx(t_c, abs=0.5e-6)
+        assert restitution(352.1, 0.19, m / 2) == pytest.approx(e_n, abs=0.5e-4)
+    assert restitution(352.1, 0.0, M_S) == 1.0
+    with pytest.raises(SceneError, match=r"\[contact\] gamma_n = 10.0: overdamped"):
+        contact_time(352.1, 10.0, M_S / 2)
+
+
+def test_resolve_dt_shipped_b():
+    s = load_scene(ROOT / "run_scripts" / "couette_B.toml")
+    m_red = M_S / 2
+    eta = 0.19 / (2 * m_red)
+    t_c = math.pi / math.sqrt(352.1 / m_red - eta**2)  # hand formula, SPEC §3
+    assert t_c == pytest.approx(2.177e-3, rel=1e-3)
+    assert smallest_contact_time(s) == pytest.approx(t_c, rel=1e-12)
+    assert resolve_dt(s) == pytest.approx(t_c / 50, rel=1e-12)
+
+
+def test_dt_too_large_refused():
+    d = mutate(couette_dict(), "time.dt", 0.001)
+    with pytest.raises(SceneError) as err:
+        resolve_dt(scene_from_dict(d))
+    msg = str(err.value)
+    assert msg.startswith("[time] dt = 0.001 s exceeds t_c/5 = 0.000435 s")
+    assert "t_c = 0.002177 s" in msg and 'dt = "auto"' in msg
+    assert resolve_dt(scene_from_dict(mutate(couette_dict(), "time.dt", 4e-4))) == 4e-4
+
+
+def test_reduced_mass_rules():
+    def couette(species):
+        return scene_from_dict({**couette_dict(), "species": species})
+
+    small = {"name": "small", "diameter": D_S, "mass": M_S, "count": 1}
+    large = {"name": "large", "diameter": D_L, "mass": M_L, "count": 5}
+    assert smallest_reduced_mass(couette([small, large])) == pytest.approx(M_S * M_L / (M_S + M_L))
+    assert smallest_reduced_mass(couette([{**small, "count": 2}, large])) == M_S / 2
+    assert smallest_reduced_mass(couette([{**small, "count": 0}, large])) == M_L / 2
+    assert smallest_reduced_mass(couette([small])) == M_S  # only wall partners
+    d = free_dict()
+    d["particles"][1]["mass"] = M_L
+    assert smallest_reduced_mass(scene_from_dict(d)) == pytest.approx(M_S * M_L / (M_S + M_L))
+    no_damp = mutate(couette_dict(), "effects.normal_damping", False)
+    assert smallest_contact_time(scene_from_dict(no_damp)) == pytest.approx(
+        math.pi * math.sqrt(M_S / 2 / 352.1))
+
+
+def test_free_particles_equality():
+    a = scene_from_dict(free_dict()).particles
+    b = FreeParticles(*(getattr(a, k).copy() for k in ("x", "y", "vx", "vy", "omega",
+                                                       "diameter", "mass")))
+    assert a == b and hash(a) == hash(b) and isinstance(a, FreeParticles)
+    assert isinstance(scene_from_dict(free_dict()), Scene)
