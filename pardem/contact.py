@@ -1,8 +1,10 @@
 """The contact law of SPEC §3 (paper eqs. 1.1-1.4), specialised on the scene's effects.
 
-Stage: force kernels. ``make_contact_law(options)`` returns one small jitted function that the
-pair loop and the wall loops inline. Effects are closure constants, so a disabled effect is
-removed by the compiler (no branch per contact, no history access).
+Stage: force kernels. ``contact_law`` and ``pair_force`` are stateless jitted functions that the
+step loop inlines; their last three arguments are the effect switches (damping, friction,
+clip). The step loop passes compile-time constants there, so a disabled effect is removed by the
+compiler (no branch per contact, no history access). Keeping these module-level (not closures)
+lets numba's on-disk cache serve them to every later process.
 
 Conventions (shared with the averaging package):
 - n points from partner j to particle i; overlap delta = a_i + a_j - |r_i - r_j| > 0.
@@ -15,11 +17,18 @@ Conventions (shared with the averaging package):
 
 from __future__ import annotations
 
-import functools
 import math
 from typing import NamedTuple
 
 import numba as nb
+
+
+# No fastmath: "nnan"/"ninf" would remove the NaN watchdog; FMA contraction breaks the exact
+# antisymmetry of pair forces (a_i w_i + a_j w_j becomes fma(a_i, w_i, a_j w_j), not symmetric
+# in i <-> j); and "arcp" lets LLVM round a division differently in differently specialised
+# kernels, so mu = 0 no longer reproduces tangential_friction = false bit for bit. Both were
+# measured (tests/test_contact_law.py, tests/test_effects.py); the speed gain was ~1-2 %.
+FASTMATH = False
 
 
 class LawOptions(NamedTuple):
@@ -30,89 +39,73 @@ class LawOptions(NamedTuple):
     clip: bool = False
 
 
-@functools.lru_cache(maxsize=None)
-def make_contact_law(opts: LawOptions):
-    """Return ``law(nx, ny, delta, vx, vy, xix, xiy, prm) -> (fn, ftx, fty, xix, xiy, sliding)``.
-
-    (vx, vy) is v_ij; (xix, xiy) the spring before this step; the spring returned is the updated
-    one (rotated into the current tangent plane, incremented by v_ij^t dt, capped).
-    delta <= 0 is allowed (a pair within half a step of touching): it gets only its share of
-    the damping force, no elastic force and no spring.
-    """
-    damping, friction, clip = opts.damping, opts.friction, opts.clip
-
-    @nb.njit(cache=True, inline="always")
-    def law(nx, ny, delta, vx, vy, xix, xiy, prm):
-        vn = vx * nx + vy * ny  # = -delta_dot
-        fn = prm.k_n * delta if delta > 0.0 else 0.0
-        if damping:
-            # Velocity Verlet applies each force sample for one window [t - dt/2, t + dt/2]. The
-            # damping term jumps at contact entry and exit, so weight it by the in-contact
-            # fraction of the window; otherwise e_n carries an O(dt) error that depends on where
-            # the contact begins and ends between steps (up to 6 % at dt = t_c/50).
-            w = 1.0
-            half = 0.5 * abs(vn) * prm.dt  # overlap change over half a step
-            if delta < half:
-                w = max(0.5 + 0.5 * delta / half, 0.0) if half > 0.0 else 0.0
-            fn -= w * prm.gamma_n * vn
-        if clip:
-            fn = max(fn, 0.0)
-        ftx = 0.0
-        fty = 0.0
-        sliding = False
-        if friction:
-            if delta <= 0.0:  # within reach of a contact, not touching: no spring
-                return fn, 0.0, 0.0, 0.0, 0.0, False
-            # Keep the spring in the tangent plane as the contact rotates (projection).
-            xn = xix * nx + xiy * ny
-            xix = xix - xn * nx + (vx - vn * nx) * prm.dt
-            xiy = xiy - xn * ny + (vy - vn * ny) * prm.dt
-            ftx = -prm.k_t * xix
-            fty = -prm.k_t * xiy
-            fmax = prm.mu * abs(fn)
-            ft2 = ftx * ftx + fty * fty
-            if ft2 > fmax * fmax:
-                s = fmax / math.sqrt(ft2)
-                ftx *= s
-                fty *= s
-                xix = -ftx / prm.k_t
-                xiy = -fty / prm.k_t
-                sliding = True
-        return fn, ftx, fty, xix, xiy, sliding
-
-    return law
+@nb.njit(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH)
+def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip):
+    """``-> (fn, ftx, fty, xix, xiy, sliding)`` for a contact with normal (nx, ny), overlap
+    delta (m) and relative contact velocity v_ij = (vx, vy) (m/s); (xix, xiy) is the spring
+    before this step, the one returned is updated (rotated into the current tangent plane,
+    incremented by v_ij^t dt, capped). delta <= 0 is allowed (a pair within half a step of
+    touching): it gets only its share of the damping force, no elastic force and no spring."""
+    vn = vx * nx + vy * ny  # = -delta_dot
+    fn = prm.k_n * delta if delta > 0.0 else 0.0
+    if damping:
+        # Velocity Verlet applies each force sample for one window [t - dt/2, t + dt/2]. The
+        # damping term jumps at contact entry and exit, so weight it by the in-contact
+        # fraction of the window; otherwise e_n carries an O(dt) error that depends on where
+        # the contact begins and ends between steps (up to 6 % at dt = t_c/50).
+        w = 1.0
+        half = 0.5 * abs(vn) * prm.dt  # overlap change over half a step
+        if delta < half:
+            w = max(0.5 + 0.5 * delta / half, 0.0) if half > 0.0 else 0.0
+        fn -= w * prm.gamma_n * vn
+    if clip:
+        fn = max(fn, 0.0)
+    ftx = 0.0
+    fty = 0.0
+    sliding = False
+    if friction:
+        if delta <= 0.0:  # within reach of a contact, not touching: no spring
+            return fn, 0.0, 0.0, 0.0, 0.0, False
+        # Keep the spring in the tangent plane as the contact rotates (projection).
+        xn = xix * nx + xiy * ny
+        xix = xix - xn * nx + (vx - vn * nx) * prm.dt
+        xiy = xiy - xn * ny + (vy - vn * ny) * prm.dt
+        ftx = -prm.k_t * xix
+        fty = -prm.k_t * xiy
+        fmax = prm.mu * abs(fn)
+        ft2 = ftx * ftx + fty * fty
+        if ft2 > fmax * fmax:
+            cap = fmax / math.sqrt(ft2)
+            ftx *= cap
+            fty *= cap
+            xix = -ftx / prm.k_t
+            xiy = -fty / prm.k_t
+            sliding = True
+    return fn, ftx, fty, xix, xiy, sliding
 
 
-@functools.lru_cache(maxsize=None)
-def make_pair_force(opts: LawOptions):
-    """Return the disk-disk kernel
-    ``pair(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm)``.
-
-    (dx, dy) = r_i - r_j, (dvx, dvy) = v_i - v_j; reach (m) bounds how far any overlap can change
-    in half a step (pairs that close get their share of damping). Returns
-    ``(active, fx, fy, tau_i, tau_j, xix, xiy)``: force on i (j gets -f), torques on i and j.
-    Swapping i and j negates the force bit for bit (every operation is odd in the swap).
-    """
-    law = make_contact_law(opts)
-    damping = opts.damping
-
-    @nb.njit(cache=True, inline="always")
-    def pair(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm):
-        r2 = dx * dx + dy * dy
-        rs = ai + aj
-        lim = rs + reach if damping else rs
-        if r2 >= lim * lim:
-            return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
-        dist = math.sqrt(r2)
-        nx = dx / dist
-        ny = dy / dist
-        delta = rs - dist
-        s = ai * wi + aj * wj
-        # v_ij = dv - s (z x n), with z x n = (-ny, nx)
-        fn, ftx, fty, xix, xiy, _ = law(nx, ny, delta, dvx + s * ny, dvy - s * nx, xix, xiy, prm)
-        # torque of f_t about each centre, lever (a - delta/2) along -n for i and +n for j
-        nxft = nx * fty - ny * ftx
-        return (True, fn * nx + ftx, fn * ny + fty, -(ai - 0.5 * delta) * nxft,
-                -(aj - 0.5 * delta) * nxft, xix, xiy)
-
-    return pair
+@nb.njit(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH)
+def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, friction, clip):
+    """Disk-disk contact. (dx, dy) = r_i - r_j, (dvx, dvy) = v_i - v_j, wi, wj spins; reach (m)
+    bounds how far any overlap can change in half a step (pairs that close get their share of
+    damping). Returns ``(active, fx, fy, tau_i, tau_j, xix, xiy)``: force on i (j gets -f),
+    torques on i and j. Swapping i and j negates the force bit for bit (every operation is odd
+    in the swap)."""
+    r2 = dx * dx + dy * dy
+    rs = ai + aj
+    lim = rs + reach if damping else rs
+    if r2 >= lim * lim:
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    dist = math.sqrt(r2)
+    inv = 1.0 / dist
+    nx = dx * inv
+    ny = dy * inv
+    delta = rs - dist
+    s = ai * wi + aj * wj
+    # v_ij = dv - s (z x n), with z x n = (-ny, nx)
+    fn, ftx, fty, xix, xiy, _ = contact_law(nx, ny, delta, dvx + s * ny, dvy - s * nx, xix, xiy,
+                                            prm, damping, friction, clip)
+    # torque of f_t about each centre, lever (a - delta/2) along -n for i and +n for j
+    nxft = nx * fty - ny * ftx
+    return (True, fn * nx + ftx, fn * ny + fty, -(ai - 0.5 * delta) * nxft,
+            -(aj - 0.5 * delta) * nxft, xix, xiy)

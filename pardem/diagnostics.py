@@ -13,7 +13,7 @@ import numba as nb
 import numpy as np
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def kinetic_energy(ps, n_move):
     """Translational + rotational kinetic energy (J) of the moving particles."""
     e = 0.0
@@ -24,7 +24,7 @@ def kinetic_energy(ps, n_move):
     return e
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def elastic_energy(ps, pairs, prm):
     """Energy (J) stored in the normal springs of touching particle pairs and tangential springs."""
     e = 0.0
@@ -39,7 +39,7 @@ def elastic_energy(ps, pairs, prm):
     return e
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def ring_elastic_energy(ps, pairs, prm, r_out):
     """Energy (J) in the normal springs of contacts with the flat ring surfaces (outer radius
     r_out at the current time)."""
@@ -53,7 +53,7 @@ def ring_elastic_energy(ps, pairs, prm, r_out):
     return e
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def max_overlap_ratio(ps, pairs, prm, r_out):
     """Largest overlap over the diameter of the smaller free particle involved, over disk-disk,
     disk-wall-disk and disk-flat-ring contacts (0 when nothing touches)."""
@@ -72,7 +72,7 @@ def max_overlap_ratio(ps, pairs, prm, r_out):
     return worst
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def touching_pairs(ps, pairs):
     """Indices into the pair list of the pairs that touch now."""
     out = np.empty(pairs.count[0], np.int64)

@@ -76,6 +76,7 @@ class Simulation:
         ps.inv_mass[:] = 1.0 / init.mass
         ps.inv_inertia[:] = 2.0 / (init.mass * init.radius**2)  # I = m d^2 / 8
         ps.phi0[:] = init.phi0
+        ps.e0[:] = np.column_stack([np.cos(init.phi0), np.sin(init.phi0)])
         self.ps = ps
         g = scene.geometry
         c = scene.contact

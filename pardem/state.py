@@ -32,7 +32,8 @@ class Particles(NamedTuple):
     f [n,2] (N) and tau [n] (N m): the force and torque of the current positions.
     radius [n] (m), mass [n] (kg), inv_mass [n] (1/kg), inv_inertia [n] (1/(kg m^2)):
     inverse mass and inertia are 0 for prescribed bodies.
-    phi0 [n] (rad): a wall disk's angular position on its ring at t = 0 (0 for free particles).
+    phi0 [n] (rad): a wall disk's angular position on its ring at t = 0 (0 for free particles);
+    e0 [n,2]: its unit vector (cos phi0, sin phi0), so moving the walls costs one cos/sin a step.
     v_pred [n,2] (m/s), w_pred [n] (rad/s): velocity and spin predicted at the new full step,
     v(t+dt) ~ v(t+dt/2) + dt/2 a(t); the velocity-dependent forces (damping, tangential
     spring) use them, which makes the contact velocity second-order accurate in dt.
@@ -54,6 +55,7 @@ class Particles(NamedTuple):
     inv_mass: np.ndarray
     inv_inertia: np.ndarray
     phi0: np.ndarray
+    e0: np.ndarray
     v_pred: np.ndarray
     w_pred: np.ndarray
     x_ref: np.ndarray
@@ -123,7 +125,7 @@ def new_particles(n: int, friction: bool) -> Particles:
     return Particles(
         gid=z(n, np.int64), kind=z(n, np.int8), x=z((n, 2)), v=z((n, 2)), theta=z(n),
         omega=z(n), f=z((n, 2)), tau=z(n), radius=z(n), mass=z(n), inv_mass=z(n),
-        inv_inertia=z(n), phi0=z(n), v_pred=z((n, 2)), w_pred=z(n), x_ref=z((n, 2)), xi_wall=z((n if friction else 0, 2)),
+        inv_inertia=z(n), phi0=z(n), e0=z((n, 2)), v_pred=z((n, 2)), w_pred=z(n), x_ref=z((n, 2)), xi_wall=z((n if friction else 0, 2)),
     )
 
 

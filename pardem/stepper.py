@@ -3,19 +3,26 @@
 Stage: integration. ``make_stepper(options)`` returns a ``Stepper`` of jitted functions that run
 many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
 
-    half kick   v += dt/2 f/m  (then bottom friction), w += dt/2 tau/I
+    half kick   v += dt/2 f/m, w += dt/2 tau/I
     drift       x += dt v, theta += dt w;  rings and wall disks moved to t + dt;
                 predict v(t+dt) = v + dt/2 f(t)/m for the velocity-dependent forces
     (stop here and return NEED_REBUILD if any body moved more than skin/2 since the last
      neighbour build; the caller rebuilds the list and calls ``advance`` again, which resumes)
     forces      pair contacts in canonical pair order, then flat ring contacts
-    half kick
+    half kick   (then bottom friction)
 
-Time is ``step * dt`` (never accumulated). Bottom friction acts in the kicks as a velocity-space
-Coulomb friction: it removes at most mu_b g dt/2 of speed per half kick and never reverses the
-velocity, so a disk at rest with small loads stays exactly at rest and nothing divides by zero.
+Time is ``step * dt`` (never accumulated). Bottom friction acts in the closing kick as a
+velocity-space Coulomb friction: it removes at most mu_b g dt of speed per step and never
+reverses the velocity, so a disk at rest with small loads stays exactly at rest and nothing
+divides by zero.
 
 Reads/writes: Particles, Pairs (springs), Clock; reads Params.
+
+The stages are module-level jitted functions taking the effect switches as arguments (the
+``fx`` tuple: damping, friction, clip, rotation, bottom_friction, walls) and inlined into
+``advance``, a closure over nothing but those booleans: they are compile-time constants there,
+so a disabled effect is compiled out, and numba's disk cache can serve the kernels to later
+processes (closures that capture other jitted functions get a new cache key in every process).
 """
 
 from __future__ import annotations
@@ -26,7 +33,7 @@ from typing import Callable, NamedTuple
 
 import numba as nb
 
-from .contact import LawOptions, make_contact_law, make_pair_force
+from .contact import FASTMATH, LawOptions, contact_law, pair_force
 from .walls import outer_radius, place_wall_disks
 
 OK, NEED_REBUILD, BAD_PARTICLE = 0, 1, 2
@@ -49,162 +56,183 @@ class Stepper(NamedTuple):
     compute_forces: Callable
 
 
+JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH)
+INLINE = dict(JIT, inline="always")
+
+
+@nb.njit(**INLINE)
+def forces(ps, pairs, n_loc, prm, t, reach, fx):
+    """Pair contacts in canonical order, then flat ring contacts -> ps.f, ps.tau, springs."""
+    damping, friction, clip, rotation, _, walls = fx
+    # Names here must not repeat those inside the inlined kernels: numba's IR inliner was seen
+    # to change results when they did (tests/test_contact_law.py checks the compiled loop).
+    x, v, spin, a, f, tau, xi = ps.x, ps.v_pred, ps.w_pred, ps.radius, ps.f, ps.tau, pairs.xi
+    for k in range(n_loc):
+        f[k, 0] = 0.0
+        f[k, 1] = 0.0
+        tau[k] = 0.0
+    for k in range(pairs.count[0]):
+        i = pairs.i[k]
+        j = pairs.j[k]
+        xix = xi[k, 0] if friction else 0.0
+        xiy = xi[k, 1] if friction else 0.0
+        wi = spin[i] if rotation else 0.0
+        wj = spin[j] if rotation else 0.0
+        active, fxk, fyk, ti, tj, xix, xiy = pair_force(
+            x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], a[i], a[j], v[i, 0] - v[j, 0],
+            v[i, 1] - v[j, 1], wi, wj, xix, xiy, reach, prm, damping, friction, clip)
+        if friction:
+            xi[k, 0] = xix  # a pair that does not touch comes back with xi = 0
+            xi[k, 1] = xiy
+        if active:
+            f[i, 0] += fxk
+            f[i, 1] += fyk
+            f[j, 0] -= fxk
+            f[j, 1] -= fyk
+            if rotation:
+                tau[i] += ti
+                tau[j] += tj
+    if walls:
+        flat_ring_contacts(ps, pairs, prm, t, reach, fx)
+
+
+@nb.njit(**INLINE)
+def flat_ring_contacts(ps, pairs, prm, t, reach, fx):
+    """Contacts of candidate free particles with the two ring surfaces (infinitely massive)."""
+    damping, friction, clip, rotation, _, _ = fx
+    r_o, r_o_dot = outer_radius(t, prm)
+    lim = reach if damping else 0.0
+    for q in range(pairs.wall_count[0]):
+        i = pairs.wall[q]
+        rx, ry = ps.x[i, 0], ps.x[i, 1]
+        r = math.sqrt(rx * rx + ry * ry)
+        a = ps.radius[i]
+        if r - prm.r_in < a + lim:  # inner ring: n = +e_r, surface speed omega_in r_in
+            nx, ny, delta = rx / r, ry / r, a - (r - prm.r_in)
+            vjx, vjy, s_j = 0.0, 0.0, prm.omega_in * prm.r_in
+        elif r_o - r < a + lim:  # outer ring: n = -e_r, surface moves radially at r_o_dot
+            nx, ny, delta = -rx / r, -ry / r, a - (r_o - r)
+            vjx, vjy, s_j = -r_o_dot * nx, -r_o_dot * ny, 0.0
+        else:
+            if friction:
+                ps.xi_wall[i, 0] = 0.0
+                ps.xi_wall[i, 1] = 0.0
+            continue
+        s = (a * ps.w_pred[i] if rotation else 0.0) + s_j
+        xix = ps.xi_wall[i, 0] if friction else 0.0
+        xiy = ps.xi_wall[i, 1] if friction else 0.0
+        fn, ftx, fty, xix, xiy, _ = contact_law(
+            nx, ny, delta, ps.v_pred[i, 0] - vjx + s * ny, ps.v_pred[i, 1] - vjy - s * nx,
+            xix, xiy, prm, damping, friction, clip)
+        if friction:
+            ps.xi_wall[i, 0] = xix
+            ps.xi_wall[i, 1] = xiy
+        ps.f[i, 0] += fn * nx + ftx
+        ps.f[i, 1] += fn * ny + fty
+        if rotation:
+            ps.tau[i] -= (a - 0.5 * delta) * (nx * fty - ny * ftx)
+
+
+@nb.njit(**INLINE)
+def kick(ps, n_move, h, prm, fx, closing):
+    """Half kick of the moving particles. The closing kick of a step then applies bottom friction
+    as a velocity-space Coulomb friction: it removes mu_b g dt of speed and never reverses the
+    velocity, so a disk at rest stays at rest and nothing divides by zero."""
+    rotation, bottom = fx[3], fx[4]
+    dv = prm.mu_b_g * 2.0 * h
+    for i in range(n_move):
+        vx = ps.v[i, 0] + h * ps.f[i, 0] * ps.inv_mass[i]
+        vy = ps.v[i, 1] + h * ps.f[i, 1] * ps.inv_mass[i]
+        if bottom and closing:
+            speed = math.sqrt(vx * vx + vy * vy)
+            if speed <= dv:
+                vx = 0.0
+                vy = 0.0
+            else:
+                c = 1.0 - dv / speed
+                vx *= c
+                vy *= c
+        ps.v[i, 0] = vx
+        ps.v[i, 1] = vy
+        if rotation:
+            ps.omega[i] += h * ps.tau[i] * ps.inv_inertia[i]
+
+
+@nb.njit(**INLINE)
+def drift(ps, clock, prm, fx):
+    """Move free bodies and walls to t + dt; return (status, index of a bad particle)."""
+    rotation, walls = fx[3], fx[5]
+    dt = prm.dt
+    h = 0.5 * dt
+    n_move = clock.n_move[0]
+    esc2 = prm.escape_radius * prm.escape_radius
+    max_d2 = 0.0
+    max_v2 = 0.0
+    bad = -1
+    for i in range(n_move):
+        x0 = ps.x[i, 0] + dt * ps.v[i, 0]
+        x1 = ps.x[i, 1] + dt * ps.v[i, 1]
+        ps.x[i, 0] = x0
+        ps.x[i, 1] = x1
+        vpx = ps.v[i, 0] + h * ps.f[i, 0] * ps.inv_mass[i]
+        vpy = ps.v[i, 1] + h * ps.f[i, 1] * ps.inv_mass[i]
+        ps.v_pred[i, 0] = vpx
+        ps.v_pred[i, 1] = vpy
+        max_v2 = max(max_v2, vpx * vpx + vpy * vpy)
+        if rotation:
+            ps.theta[i] += dt * ps.omega[i]
+            ps.w_pred[i] = ps.omega[i] + h * ps.tau[i] * ps.inv_inertia[i]
+        if not (x0 * x0 + x1 * x1 <= esc2):  # also catches NaN
+            bad = i
+        dx = x0 - ps.x_ref[i, 0]
+        dy = x1 - ps.x_ref[i, 1]
+        max_d2 = max(max_d2, dx * dx + dy * dy)
+    clock.step[0] += 1
+    clock.phase[0] = 1
+    if bad >= 0:
+        return BAD_PARTICLE, bad
+    ring_move = 0.0
+    if walls:
+        t = clock.step[0] * dt
+        place_wall_disks(ps, n_move, clock.n_local[0], t, prm)
+        for i in range(n_move, clock.n_local[0]):
+            ps.v_pred[i, 0] = ps.v[i, 0]  # prescribed: exact
+            ps.v_pred[i, 1] = ps.v[i, 1]
+            ps.w_pred[i] = ps.omega[i]
+            max_v2 = max(max_v2, ps.v[i, 0] ** 2 + ps.v[i, 1] ** 2)
+            dx = ps.x[i, 0] - ps.x_ref[i, 0]
+            dy = ps.x[i, 1] - ps.x_ref[i, 1]
+            max_d2 = max(max_d2, dx * dx + dy * dy)
+        ring_move = abs(outer_radius(t, prm)[0] - clock.r_out_ref[0])
+    clock.reach[0] = math.sqrt(max_v2) * dt  # 2 max|v| dt/2
+    # the list must hold every pair within reach of touching: 2 max_disp + reach <= skin
+    if math.sqrt(max_d2) + ring_move + 0.5 * clock.reach[0] > 0.5 * prm.skin:
+        return NEED_REBUILD, -1
+    return OK, -1
+
+
 @functools.lru_cache(maxsize=None)
 def make_stepper(opts: StepOptions) -> Stepper:
-    pair_force = make_pair_force(opts.law)
-    law = make_contact_law(opts.law)
-    friction, rotation, damping = opts.law.friction, opts.rotation, opts.law.damping
-    bottom, walls = opts.bottom_friction, opts.walls
+    """Compile (or load from numba's cache) the step loop for one set of effects."""
+    fx = (opts.law.damping, opts.law.friction, opts.law.clip, opts.rotation,
+          opts.bottom_friction, opts.walls)
 
-    @nb.njit(cache=True)
-    def forces(ps, pairs, n_loc, prm, t, reach):
-        x, v, w, a, f, tau, xi = ps.x, ps.v_pred, ps.w_pred, ps.radius, ps.f, ps.tau, pairs.xi
-        for k in range(n_loc):
-            f[k, 0] = 0.0
-            f[k, 1] = 0.0
-            tau[k] = 0.0
-        for k in range(pairs.count[0]):
-            i = pairs.i[k]
-            j = pairs.j[k]
-            xix = xi[k, 0] if friction else 0.0
-            xiy = xi[k, 1] if friction else 0.0
-            wi = w[i] if rotation else 0.0
-            wj = w[j] if rotation else 0.0
-            active, fx, fy, ti, tj, xix, xiy = pair_force(
-                x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], a[i], a[j],
-                v[i, 0] - v[j, 0], v[i, 1] - v[j, 1], wi, wj, xix, xiy, reach, prm)
-            if friction:
-                xi[k, 0] = xix  # a pair that does not touch comes back with xi = 0
-                xi[k, 1] = xiy
-            if active:
-                f[i, 0] += fx
-                f[i, 1] += fy
-                f[j, 0] -= fx
-                f[j, 1] -= fy
-                if rotation:
-                    tau[i] += ti
-                    tau[j] += tj
-        if walls:
-            flat_ring_contacts(ps, pairs, prm, t, reach)
-
-    @nb.njit(cache=True)
-    def flat_ring_contacts(ps, pairs, prm, t, reach):
-        r_o, r_o_dot = outer_radius(t, prm)
-        for q in range(pairs.wall_count[0]):
-            i = pairs.wall[q]
-            rx, ry = ps.x[i, 0], ps.x[i, 1]
-            r = math.sqrt(rx * rx + ry * ry)
-            a = ps.radius[i]
-            lim = reach if damping else 0.0
-            if r - prm.r_in < a + lim:  # inner ring: n = +e_r, surface speed omega_in r_in
-                nx, ny, delta = rx / r, ry / r, a - (r - prm.r_in)
-                vjx, vjy, s_j = 0.0, 0.0, prm.omega_in * prm.r_in
-            elif r_o - r < a + lim:  # outer ring: n = -e_r, surface moves radially at r_o_dot
-                nx, ny, delta = -rx / r, -ry / r, a - (r_o - r)
-                vjx, vjy, s_j = -r_o_dot * nx, -r_o_dot * ny, 0.0
-            else:
-                if friction:
-                    ps.xi_wall[i, 0] = 0.0
-                    ps.xi_wall[i, 1] = 0.0
-                continue
-            s = (a * ps.w_pred[i] if rotation else 0.0) + s_j
-            xix = ps.xi_wall[i, 0] if friction else 0.0
-            xiy = ps.xi_wall[i, 1] if friction else 0.0
-            fn, ftx, fty, xix, xiy, _ = law(nx, ny, delta, ps.v_pred[i, 0] - vjx + s * ny,
-                                            ps.v_pred[i, 1] - vjy - s * nx, xix, xiy, prm)
-            if friction:
-                ps.xi_wall[i, 0] = xix
-                ps.xi_wall[i, 1] = xiy
-            ps.f[i, 0] += fn * nx + ftx
-            ps.f[i, 1] += fn * ny + fty
-            if rotation:
-                ps.tau[i] -= (a - 0.5 * delta) * (nx * fty - ny * ftx)
-
-    @nb.njit(cache=True)
-    def kick(ps, n_move, h, prm):
-        for i in range(n_move):
-            vx = ps.v[i, 0] + h * ps.f[i, 0] * ps.inv_mass[i]
-            vy = ps.v[i, 1] + h * ps.f[i, 1] * ps.inv_mass[i]
-            if bottom:
-                speed = math.sqrt(vx * vx + vy * vy)
-                dv = prm.mu_b_g * h
-                if speed <= dv:
-                    vx = 0.0
-                    vy = 0.0
-                else:
-                    c = 1.0 - dv / speed
-                    vx *= c
-                    vy *= c
-            ps.v[i, 0] = vx
-            ps.v[i, 1] = vy
-            if rotation:
-                ps.omega[i] += h * ps.tau[i] * ps.inv_inertia[i]
-
-    @nb.njit(cache=True)
-    def drift(ps, clock, prm):
-        """Move free bodies and walls to t + dt; return (status, index of a bad particle)."""
-        dt = prm.dt
-        n_move = clock.n_move[0]
-        esc2 = prm.escape_radius * prm.escape_radius
-        max_d2 = 0.0
-        max_v2 = 0.0
-        bad = -1
-        h = 0.5 * dt
-        for i in range(n_move):
-            x0 = ps.x[i, 0] + dt * ps.v[i, 0]
-            x1 = ps.x[i, 1] + dt * ps.v[i, 1]
-            ps.x[i, 0] = x0
-            ps.x[i, 1] = x1
-            ps.v_pred[i, 0] = ps.v[i, 0] + h * ps.f[i, 0] * ps.inv_mass[i]
-            ps.v_pred[i, 1] = ps.v[i, 1] + h * ps.f[i, 1] * ps.inv_mass[i]
-            max_v2 = max(max_v2, ps.v_pred[i, 0] ** 2 + ps.v_pred[i, 1] ** 2)
-            if rotation:
-                ps.theta[i] += dt * ps.omega[i]
-                ps.w_pred[i] = ps.omega[i] + h * ps.tau[i] * ps.inv_inertia[i]
-            if not (x0 * x0 + x1 * x1 <= esc2):  # also catches NaN
-                bad = i
-            dx = x0 - ps.x_ref[i, 0]
-            dy = x1 - ps.x_ref[i, 1]
-            max_d2 = max(max_d2, dx * dx + dy * dy)
-        clock.step[0] += 1
-        clock.phase[0] = 1
-        if bad >= 0:
-            return BAD_PARTICLE, bad
-        ring_move = 0.0
-        if walls:
-            t = clock.step[0] * dt
-            place_wall_disks(ps, n_move, clock.n_local[0], t, prm)
-            for i in range(n_move, clock.n_local[0]):
-                ps.v_pred[i, 0] = ps.v[i, 0]  # prescribed: exact
-                ps.v_pred[i, 1] = ps.v[i, 1]
-                ps.w_pred[i] = ps.omega[i]
-                max_v2 = max(max_v2, ps.v[i, 0] ** 2 + ps.v[i, 1] ** 2)
-                dx = ps.x[i, 0] - ps.x_ref[i, 0]
-                dy = ps.x[i, 1] - ps.x_ref[i, 1]
-                max_d2 = max(max_d2, dx * dx + dy * dy)
-            ring_move = abs(outer_radius(t, prm)[0] - clock.r_out_ref[0])
-        clock.reach[0] = math.sqrt(max_v2) * dt  # 2 max|v| dt/2
-        # the list must hold every pair within reach of touching: 2 max_disp + reach <= skin
-        if math.sqrt(max_d2) + ring_move + 0.5 * clock.reach[0] > 0.5 * prm.skin:
-            return NEED_REBUILD, -1
-        return OK, -1
-
-    @nb.njit(cache=True)
+    @nb.njit(**JIT)
     def advance(ps, pairs, clock, prm, target):
         h = 0.5 * prm.dt
         n_move = clock.n_move[0]
         while clock.step[0] < target or clock.phase[0] == 1:
             if clock.phase[0] == 0:
-                kick(ps, n_move, h, prm)
-                status, bad = drift(ps, clock, prm)
+                kick(ps, n_move, h, prm, fx, False)
+                status, bad = drift(ps, clock, prm, fx)
                 if status != OK:
                     return status, bad
-            forces(ps, pairs, clock.n_local[0], prm, clock.step[0] * prm.dt, clock.reach[0])
-            kick(ps, n_move, h, prm)
+            forces(ps, pairs, clock.n_local[0], prm, clock.step[0] * prm.dt, clock.reach[0], fx)
+            kick(ps, n_move, h, prm, fx, True)
             clock.phase[0] = 0
         return OK, -1
 
-    @nb.njit(cache=True)
+    @nb.njit(**JIT)
     def compute_forces(ps, pairs, clock, prm):
         """Forces of the current state with synchronous velocities (start of a run)."""
         n = clock.n_local[0]
@@ -214,6 +242,6 @@ def make_stepper(opts: StepOptions) -> Stepper:
         for i in range(n):
             v2 = max(v2, ps.v[i, 0] ** 2 + ps.v[i, 1] ** 2)
         clock.reach[0] = math.sqrt(v2) * prm.dt
-        forces(ps, pairs, n, prm, clock.step[0] * prm.dt, clock.reach[0])
+        forces(ps, pairs, n, prm, clock.step[0] * prm.dt, clock.reach[0], fx)
 
     return Stepper(advance=advance, compute_forces=compute_forces)

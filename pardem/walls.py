@@ -15,7 +15,7 @@ import numba as nb
 import numpy as np
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def outer_radius(t, prm):
     """Outer ring radius (m) and its rate (m/s) at time t (s)."""
     if t >= prm.t_comp or prm.t_comp <= 0.0:
@@ -25,26 +25,28 @@ def outer_radius(t, prm):
     return prm.r_out + (prm.r_out0 - prm.r_out) * c, (prm.r_out0 - prm.r_out) * rate
 
 
-@nb.njit(cache=True)
+@nb.njit(cache=True, error_model="numpy")
 def place_wall_disks(ps, first, last, t, prm):
-    """Set position, velocity and spin of wall disks ps[first:last] at time t."""
+    """Set position, velocity and spin of wall disks ps[first:last] at time t (an exact function
+    of t and the disk's unit vector e0, so every rank and every restart gets the same bits)."""
     r_o, r_o_dot = outer_radius(t, prm)
+    c, s = math.cos(prm.omega_in * t), math.sin(prm.omega_in * t)
     for k in range(first, last):
-        if ps.kind[k] == 1:
-            phi = ps.phi0[k] + prm.omega_in * t
-            c, s = math.cos(phi), math.sin(phi)
-            ps.x[k, 0] = prm.r_in * c
-            ps.x[k, 1] = prm.r_in * s
-            ps.v[k, 0] = -prm.omega_in * prm.r_in * s
-            ps.v[k, 1] = prm.omega_in * prm.r_in * c
+        ex, ey = ps.e0[k, 0], ps.e0[k, 1]
+        if ps.kind[k] == 1:  # rotate e0 by omega_in t
+            ux = ex * c - ey * s
+            uy = ey * c + ex * s
+            ps.x[k, 0] = prm.r_in * ux
+            ps.x[k, 1] = prm.r_in * uy
+            ps.v[k, 0] = -prm.omega_in * prm.r_in * uy
+            ps.v[k, 1] = prm.omega_in * prm.r_in * ux
             ps.omega[k] = prm.omega_in  # glued: turns with the ring
             ps.theta[k] = prm.omega_in * t
         else:
-            c, s = math.cos(ps.phi0[k]), math.sin(ps.phi0[k])
-            ps.x[k, 0] = r_o * c
-            ps.x[k, 1] = r_o * s
-            ps.v[k, 0] = r_o_dot * c
-            ps.v[k, 1] = r_o_dot * s
+            ps.x[k, 0] = r_o * ex
+            ps.x[k, 1] = r_o * ey
+            ps.v[k, 0] = r_o_dot * ex
+            ps.v[k, 1] = r_o_dot * ey
             ps.omega[k] = 0.0
 
 

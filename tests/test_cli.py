@@ -75,3 +75,12 @@ def test_console_script_runs(tmp_path):
                         "--end", "0.01", "--quiet"], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert (tmp_path / "checkpoint.h5").exists()
+
+
+def test_more_particles_than_fit_is_refused(tmp_path, capsys):
+    scene = (Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml").read_text()
+    bad = tmp_path / "crowded.toml"
+    bad.write_text(scene.replace("count = 2545", "count = 25450"))
+    assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert "cannot place 25844 particles" in err and "outer_start_radius" in err

@@ -38,35 +38,39 @@ def test_oblique_frictional_collision_conserves_momenta():
     assert abs(sim.ps.omega[0] - 3.0) > 0.1  # and friction changed their spins
 
 
-def energy_error(dt_factor: float, steps: int) -> float:
-    """Worst relative drift of the total energy of an elastic gas of 250 disks (area fraction
-    0.6) confined between two fixed rings, everything dissipative switched off."""
+def energy_error(dt_factor: float, steps: int, seed: int) -> tuple[float, float]:
+    """Mean and worst relative deviation of the total energy (50 samples) of an elastic gas of
+    250 disks (area fraction 0.6) between two fixed rings, everything dissipative switched off."""
     g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.09,
          "compression_time": 0.0, "omega_inner": 0.0}
     off = {k: False for k in ("normal_damping", "tangential_friction", "rotation",
                               "bottom_friction")}
     sim = Simulation(couette_scene(counts=(250, 0), geometry=g, effects=off,
                                    time={"dt_per_contact": 50 / dt_factor}))
-    rng = np.random.default_rng(5)
+    rng = np.random.default_rng(seed)
     sim.ps.v[: sim.n_free] = rng.normal(0.0, 0.1, (sim.n_free, 2))
     sim.refresh()
     e0 = sim.total_energy()
-    worst, contacts = 0.0, 0
+    errs, contacts = [], 0
     for _ in range(50):
         sim.advance_steps(steps // 50)
-        worst = max(worst, abs(sim.total_energy() / e0 - 1))
+        errs.append(abs(sim.total_energy() / e0 - 1))
         contacts += sim.contacts()["ids"].shape[0]
     assert contacts > 100  # collisions all the time
-    return worst
+    return float(np.mean(errs)), float(np.max(errs))
 
 
 def test_elastic_dense_scene_conserves_energy_second_order():
-    e1 = energy_error(1.0, 10_000)
-    e2 = energy_error(0.5, 20_000)
-    print(f"\n energy error over 1e4 steps: dt=t_c/50 {e1:.3e}, dt=t_c/100 {e2:.3e}, "
-          f"ratio {e1 / e2:.2f} (order {math.log2(e1 / e2):.2f})")
-    assert e1 < 1e-3
-    assert e1 / e2 > 3.5  # at least second order (measured: ~7.8, i.e. order ~3)
+    """The gas is chaotic, so one halving of dt gives a noisy ratio (2.4 .. 7.5 seen); the order
+    is measured over a factor 4 in dt and two seeds, from the mean deviation."""
+    rows = {f: [energy_error(f, int(10_000 / f), seed) for seed in (5, 6)] for f in (1, 0.25)}
+    mean = {f: np.mean([r[0] for r in rows[f]]) for f in rows}
+    worst = max(r[1] for r in rows[1])
+    order = math.log(mean[1] / mean[0.25]) / math.log(4)
+    print(f"\n energy over 1e4 steps at t_c/50: worst {worst:.2e}, mean {mean[1]:.2e}; "
+          f"at t_c/200: mean {mean[0.25]:.2e}; order {order:.2f}")
+    assert worst < 1e-3
+    assert order > 1.7
 
 
 def test_momentum_of_a_free_elastic_cluster_is_conserved():

@@ -5,12 +5,22 @@ import math
 import numpy as np
 import pytest
 
-from pardem.contact import LawOptions, make_contact_law, make_pair_force
+from pardem.contact import contact_law, pair_force
 from pardem.state import Params
 
 PRM = Params(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, mu_b_g=0.0, r_in=0.0,
              omega_in=0.0, r_out=0.0, r_out0=0.0, t_comp=0.0, skin=1e-3, escape_radius=math.inf)
-FULL = LawOptions(damping=True, friction=True, clip=False)
+FULL = (True, True, False)  # damping, friction, clip
+
+
+def make_law(flags=FULL, jitted=True):
+    fn = contact_law if jitted else contact_law.py_func
+    return lambda *args: fn(*args, *flags)
+
+
+def make_pair(flags=FULL, jitted=True):
+    fn = pair_force if jitted else pair_force.py_func
+    return lambda *args: fn(*args, *flags)
 
 # Hand computation (SPEC §3): a_i = a_j = 5 mm, r_i - r_j = (9 mm, 0) so n = (1, 0), delta = 1 mm;
 # v_i - v_j = (-0.1, 0.2) m/s, w_i = 2, w_j = 4 rad/s -> s = a_i w_i + a_j w_j = 0.03 m/s,
@@ -23,8 +33,7 @@ HAND = dict(fx=0.3711, fy=-4.5407e-3, tau=2.043315e-5, xi=(0.0, 1.7e-5))
 
 @pytest.mark.parametrize("jitted", [True, False])
 def test_pair_force_matches_hand_computation(jitted):
-    pair = make_pair_force(FULL)
-    fn = pair if jitted else pair.py_func
+    fn = make_pair(jitted=jitted)
     touching, fx, fy, ti, tj, xix, xiy = fn(9e-3, 0.0, 5e-3, 5e-3, -0.1, 0.2, 2.0, 4.0, 0.0, 0.0,
                                             0.0, PRM)
     assert touching
@@ -36,7 +45,7 @@ def test_pair_force_matches_hand_computation(jitted):
 
 
 def test_sliding_contact_is_capped_at_coulomb():
-    law = make_contact_law(FULL)
+    law = make_law()
     # same geometry as the hand case, but a spring pre-loaded far beyond the Coulomb cap
     fn, ftx, fty, xix, xiy, sliding = law(1.0, 0.0, 1e-3, -0.1, 0.17, 0.0, 0.01, PRM)
     assert sliding
@@ -46,7 +55,7 @@ def test_sliding_contact_is_capped_at_coulomb():
 
 
 def test_sticking_contact_stays_below_cap():
-    law = make_contact_law(FULL)
+    law = make_law()
     fn, ftx, fty, xix, xiy, sliding = law(1.0, 0.0, 1e-3, -0.1, 0.17, 0.0, 1e-4, PRM)
     assert not sliding
     assert PRM.k_t * math.hypot(xix, xiy) < 0.44 * abs(fn)
@@ -54,14 +63,14 @@ def test_sticking_contact_stays_below_cap():
 
 
 def test_spring_is_projected_into_the_tangent_plane():
-    law = make_contact_law(FULL)
+    law = make_law()
     # a spring with a normal component (the contact rotated): only its tangential part survives
     _, _, _, xix, xiy, _ = law(1.0, 0.0, 1e-3, 0.0, 0.0, 3e-5, 2e-5, PRM)
     assert xix == 0.0 and xiy == 2e-5
 
 
 def test_swapping_i_and_j_negates_the_force_bitwise():
-    pair = make_pair_force(FULL)
+    pair = make_pair()
     rng = np.random.default_rng(7)
     for _ in range(2000):
         dx, dy = rng.normal(0, 4e-3, 2)
@@ -78,11 +87,11 @@ def test_swapping_i_and_j_negates_the_force_bitwise():
 
 
 def test_disabled_terms_vanish():
-    plain = make_contact_law(LawOptions(damping=False, friction=False, clip=False))
+    plain = make_law((False, False, False))
     fn, ftx, fty, xix, xiy, _ = plain(1.0, 0.0, 1e-3, -0.1, 0.17, 0.0, 0.5, PRM)
     assert fn == pytest.approx(0.3521, rel=1e-14)
     assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.5)
-    clip = make_contact_law(LawOptions(damping=True, friction=False, clip=True))
+    clip = make_law((True, False, True))
     # separating fast: damping would make the force attractive; clipping sets it to zero
     assert clip(1.0, 0.0, 1e-5, 1.0, 0.0, 0.0, 0.0, PRM)[0] == 0.0
 
@@ -90,7 +99,7 @@ def test_disabled_terms_vanish():
 def test_damping_is_weighted_by_the_in_contact_fraction_of_the_step():
     """A contact that starts within the half step around a force sample gets the damping force
     for the in-contact fraction of the sample's window [t - dt/2, t + dt/2] only."""
-    law = make_contact_law(LawOptions(damping=True, friction=True, clip=False))
+    law = make_law()
     vn = -0.1  # approaching at 0.1 m/s: delta_dot = 0.1, overlap changes 5e-6 m per half step
     half = 0.1 * PRM.dt / 2
     full = PRM.gamma_n * 0.1
@@ -102,3 +111,36 @@ def test_damping_is_weighted_by_the_in_contact_fraction_of_the_step():
     assert fn == pytest.approx(0.25 * full, rel=1e-12)
     assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.0)  # no spring before touching
     assert law(1.0, 0.0, -1.01 * half, vn, 0.0, 0.0, 0.0, PRM)[0] == 0.0
+
+
+@pytest.mark.parametrize("friction", [True, False])
+def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
+    """The inlined pair loop gives the same bits as summing standalone kernel calls in pair order
+    (guards against compiler inlining changing results)."""
+    from helpers import dense_packing, free_scene
+
+    from pardem.simulation import Simulation
+
+    eff = {"normal_damping": True, "rotation": True, "tangential_friction": friction}
+    sim = Simulation(free_scene(dense_packing(10, 10, speed=0.05), effects=eff,
+                                contact={"mu": 0.3}))
+    sim.advance_steps(200)
+    ps, pr = sim.ps, sim.pairs
+    xi0 = pr.xi.copy()
+    sim.stepper.compute_forces(ps, pr, sim.clock, sim.prm)
+    f = np.zeros_like(ps.f)
+    tau = np.zeros_like(ps.tau)
+    for k in range(pr.count[0]):
+        i, j = pr.i[k], pr.j[k]
+        xix, xiy = (xi0[k] if friction else (0.0, 0.0))
+        r = pair_force(ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1], ps.radius[i],
+                       ps.radius[j], ps.v_pred[i, 0] - ps.v_pred[j, 0],
+                       ps.v_pred[i, 1] - ps.v_pred[j, 1], ps.w_pred[i], ps.w_pred[j], xix, xiy,
+                       sim.clock.reach[0], sim.prm, True, friction, False)
+        if r[0]:
+            f[i] += r[1:3]
+            f[j] -= r[1:3]
+            tau[i] += r[3]
+            tau[j] += r[4]
+    np.testing.assert_array_equal(ps.f, f)
+    np.testing.assert_array_equal(ps.tau, tau)

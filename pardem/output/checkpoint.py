@@ -17,7 +17,7 @@ import numpy as np
 
 from ..scene import SceneError
 
-ARRAYS = ("gid", "kind", "x", "v", "theta", "omega", "f", "tau", "radius", "mass", "phi0",
+ARRAYS = ("gid", "kind", "x", "v", "theta", "omega", "f", "tau", "radius", "mass", "phi0", "e0",
           "xi_wall")
 
 
