@@ -8,8 +8,8 @@ lets numba's on-disk cache serve them to every later process.
 
 Conventions (shared with the averaging package):
 - n points from partner j to particle i; overlap delta = a_i + a_j - |r_i - r_j| > 0.
-- v_ij is the relative velocity of the contact point, v_ij = (v_i - v_j) - (a_i w_i + a_j w_j) z x n;
-  the normal overlap rate is delta_dot = -v_ij . n.
+- v_ij is the relative velocity of the contact point,
+  v_ij = (v_i - v_j) - (a_i w_i + a_j w_j) z x n; the normal overlap rate is delta_dot = -v_ij . n.
 - normal force on i: f_n n with f_n = k_n delta + gamma_n delta_dot (eqs. 1.1, 1.2).
 - tangential spring xi (m) lies in the tangent plane; trial force f_t = -k_t xi, capped at
   mu |f_n| (eq. 1.4); when sliding, xi is rescaled so that k_t |xi| = mu |f_n|.
@@ -22,13 +22,7 @@ from typing import NamedTuple
 
 import numba as nb
 
-
-# No fastmath: "nnan"/"ninf" would remove the NaN watchdog; FMA contraction breaks the exact
-# antisymmetry of pair forces (a_i w_i + a_j w_j becomes fma(a_i, w_i, a_j w_j), not symmetric
-# in i <-> j); and "arcp" lets LLVM round a division differently in differently specialised
-# kernels, so mu = 0 no longer reproduces tangential_friction = false bit for bit. Both were
-# measured (tests/test_contact_law.py, tests/test_effects.py); the speed gain was ~1-2 %.
-FASTMATH = False
+from .jit import INLINE
 
 
 class LawOptions(NamedTuple):
@@ -39,7 +33,7 @@ class LawOptions(NamedTuple):
     clip: bool = False
 
 
-@nb.njit(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH)
+@nb.njit(**INLINE)
 def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip):
     """``-> (fn, ftx, fty, xix, xiy, sliding)`` for a contact with normal (nx, ny), overlap
     delta (m) and relative contact velocity v_ij = (vx, vy) (m/s); (xix, xiy) is the spring
@@ -84,7 +78,7 @@ def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip):
     return fn, ftx, fty, xix, xiy, sliding
 
 
-@nb.njit(cache=True, inline="always", error_model="numpy", fastmath=FASTMATH)
+@nb.njit(**INLINE)
 def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, friction, clip):
     """Disk-disk contact. (dx, dy) = r_i - r_j, (dvx, dvy) = v_i - v_j, wi, wj spins; reach (m)
     bounds how far any overlap can change in half a step (pairs that close get their share of

@@ -12,8 +12,24 @@ import math
 import numba as nb
 import numpy as np
 
+from .jit import JIT
 
-@nb.njit(cache=True, error_model="numpy")
+
+@nb.njit(**JIT)
+def pair_overlap(ps, i, j):
+    """Overlap (m) of disks i and j (negative when apart)."""
+    return ps.radius[i] + ps.radius[j] - math.hypot(ps.x[i, 0] - ps.x[j, 0],
+                                                    ps.x[i, 1] - ps.x[j, 1])
+
+
+@nb.njit(**JIT)
+def ring_overlap(ps, i, prm, r_out):
+    """Overlap (m) of disk i with the nearer flat ring surface (outer radius r_out)."""
+    r = math.hypot(ps.x[i, 0], ps.x[i, 1])
+    return max(ps.radius[i] - (r - prm.r_in), ps.radius[i] - (r_out - r))
+
+
+@nb.njit(**JIT)
 def kinetic_energy(ps, n_move):
     """Translational + rotational kinetic energy (J) of the moving particles."""
     e = 0.0
@@ -24,14 +40,12 @@ def kinetic_energy(ps, n_move):
     return e
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def elastic_energy(ps, pairs, prm):
     """Energy (J) stored in the normal springs of touching particle pairs and tangential springs."""
     e = 0.0
     for k in range(pairs.count[0]):
-        i, j = pairs.i[k], pairs.j[k]
-        d = ps.radius[i] + ps.radius[j] - math.hypot(ps.x[i, 0] - ps.x[j, 0],
-                                                     ps.x[i, 1] - ps.x[j, 1])
+        d = pair_overlap(ps, pairs.i[k], pairs.j[k])
         if d > 0.0:
             e += 0.5 * prm.k_n * d * d
             if pairs.xi.shape[0] > 0:
@@ -39,40 +53,36 @@ def elastic_energy(ps, pairs, prm):
     return e
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def ring_elastic_energy(ps, pairs, prm, r_out):
     """Energy (J) in the normal springs of contacts with the flat ring surfaces (outer radius
     r_out at the current time)."""
     e = 0.0
     for q in range(pairs.wall_count[0]):
-        i = pairs.wall[q]
-        r = math.hypot(ps.x[i, 0], ps.x[i, 1])
-        d = max(ps.radius[i] - (r - prm.r_in), ps.radius[i] - (r_out - r))
+        d = ring_overlap(ps, pairs.wall[q], prm, r_out)
         if d > 0.0:
             e += 0.5 * prm.k_n * d * d
     return e
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def max_overlap_ratio(ps, pairs, prm, r_out):
     """Largest overlap over the diameter of the smaller free particle involved, over disk-disk,
     disk-wall-disk and disk-flat-ring contacts (0 when nothing touches)."""
     worst = 0.0
     for k in range(pairs.count[0]):
         i, j = pairs.i[k], pairs.j[k]  # i has the lower gid, so it is a free particle
-        d = ps.radius[i] + ps.radius[j] - math.hypot(ps.x[i, 0] - ps.x[j, 0],
-                                                     ps.x[i, 1] - ps.x[j, 1])
+        d = pair_overlap(ps, i, j)
         a = min(ps.radius[i], ps.radius[j]) if ps.kind[j] == 0 else ps.radius[i]
         worst = max(worst, d / (2.0 * a))
     for q in range(pairs.wall_count[0]):
         i = pairs.wall[q]
-        r = math.hypot(ps.x[i, 0], ps.x[i, 1])
-        d = max(ps.radius[i] - (r - prm.r_in), ps.radius[i] - (r_out - r))
+        d = ring_overlap(ps, i, prm, r_out)
         worst = max(worst, d / (2.0 * ps.radius[i]))
     return worst
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def touching_pairs(ps, pairs):
     """Indices into the pair list of the pairs that touch now."""
     out = np.empty(pairs.count[0], np.int64)

@@ -16,8 +16,10 @@ import math
 import numba as nb
 import numpy as np
 
+from .jit import JIT
 
-@nb.njit(cache=True, error_model="numpy")
+
+@nb.njit(**JIT)
 def build_pairs(x, radius, gid, kind, n, skin, pi, pj):
     """Fill pi, pj with all pairs closer than a_i + a_j + skin (centre distance), excluding
     pairs of two prescribed bodies, sorted by (gid[pi], gid[pj]) with gid[pi] < gid[pj].
@@ -89,7 +91,7 @@ def build_pairs(x, radius, gid, kind, n, skin, pi, pj):
     return count
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def carry_history(old_lo, old_hi, old_xi, new_lo, new_hi, new_xi):
     """Copy tangential springs from the old list to the new one, matching pairs by their gid keys.
     Both lists are sorted by (lo, hi); pairs absent from the old list start with xi = 0."""
@@ -107,7 +109,7 @@ def carry_history(old_lo, old_hi, old_xi, new_lo, new_hi, new_xi):
             new_xi[k, 1] = 0.0
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def ring_candidates(x, radius, n_move, r_in, r_out, skin, out):
     """Indices of free particles within skin of a flat ring surface; returns the count (which may
     exceed out.size, in which case the caller grows ``out`` and calls again)."""

@@ -125,7 +125,8 @@ def new_particles(n: int, friction: bool) -> Particles:
     return Particles(
         gid=z(n, np.int64), kind=z(n, np.int8), x=z((n, 2)), v=z((n, 2)), theta=z(n),
         omega=z(n), f=z((n, 2)), tau=z(n), radius=z(n), mass=z(n), inv_mass=z(n),
-        inv_inertia=z(n), phi0=z(n), e0=z((n, 2)), v_pred=z((n, 2)), w_pred=z(n), x_ref=z((n, 2)), xi_wall=z((n if friction else 0, 2)),
+        inv_inertia=z(n), phi0=z(n), e0=z((n, 2)), v_pred=z((n, 2)), w_pred=z(n),
+        x_ref=z((n, 2)), xi_wall=z((n if friction else 0, 2)),
     )
 
 

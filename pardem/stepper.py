@@ -33,7 +33,8 @@ from typing import Callable, NamedTuple
 
 import numba as nb
 
-from .contact import FASTMATH, LawOptions, contact_law, pair_force
+from .contact import LawOptions, contact_law, pair_force
+from .jit import INLINE, JIT
 from .walls import outer_radius, place_wall_disks
 
 OK, NEED_REBUILD, BAD_PARTICLE = 0, 1, 2
@@ -56,16 +57,11 @@ class Stepper(NamedTuple):
     compute_forces: Callable
 
 
-JIT = dict(cache=True, error_model="numpy", fastmath=FASTMATH)
-INLINE = dict(JIT, inline="always")
-
-
 @nb.njit(**INLINE)
 def forces(ps, pairs, n_loc, prm, t, reach, fx):
     """Pair contacts in canonical order, then flat ring contacts -> ps.f, ps.tau, springs."""
     damping, friction, clip, rotation, _, walls = fx
-    # Names here must not repeat those inside the inlined kernels: numba's IR inliner was seen
-    # to change results when they did (tests/test_contact_law.py checks the compiled loop).
+    # Names here must not repeat those inside the inlined kernels (see jit.py).
     x, v, spin, a, f, tau, xi = ps.x, ps.v_pred, ps.w_pred, ps.radius, ps.f, ps.tau, pairs.xi
     for k in range(n_loc):
         f[k, 0] = 0.0

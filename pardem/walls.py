@@ -14,8 +14,10 @@ import math
 import numba as nb
 import numpy as np
 
+from .jit import JIT
 
-@nb.njit(cache=True, error_model="numpy")
+
+@nb.njit(**JIT)
 def outer_radius(t, prm):
     """Outer ring radius (m) and its rate (m/s) at time t (s)."""
     if t >= prm.t_comp or prm.t_comp <= 0.0:
@@ -25,7 +27,7 @@ def outer_radius(t, prm):
     return prm.r_out + (prm.r_out0 - prm.r_out) * c, (prm.r_out0 - prm.r_out) * rate
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def place_wall_disks(ps, first, last, t, prm):
     """Set position, velocity and spin of wall disks ps[first:last] at time t (an exact function
     of t and the disk's unit vector e0, so every rank and every restart gets the same bits)."""
