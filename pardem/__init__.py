@@ -3,6 +3,8 @@
 Data flow: scene.py (TOML -> frozen dataclasses) -> placement.py (initial arrays) ->
 simulation.py (state, run loop, writers) -> stepper.py (compiled time-step loop: contact.py for
 the force law, walls.py for the rings, neighbors.py for the Verlet list) -> output/.
+Under MPI: sectors.py (who owns what: geometry only), decomposition.py (migration, ghosts,
+gathers; mpi4py) and mpi_native.py (the per-step ghost refresh, called from compiled code).
 
 Glossary (SI units throughout):
   gid       global particle id (free particles 0..N-1, then wall disks)
@@ -13,6 +15,8 @@ Glossary (SI units throughout):
   _ij       pair quantity in the (lower gid, higher gid) orientation
   t_c       contact time of the damped spring (s); e_n normal restitution coefficient
   skin      Verlet-list margin (m);  reach  largest overlap change in half a step (m)
+  owned     a free particle whose centre lies in this rank's sector; ghost: a read-only copy
+            of another rank's particle near the sector edge
 """
 
 from .output.snapshots import read_snapshots

@@ -2,6 +2,12 @@
 
 Stage: entry point. Errors in the user's input (scene, restart file, output folder) print one
 line naming the problem and exit with status 2; a run that becomes invalid exits with status 3.
+
+Under ``mpiexec -n P pardem run ...`` every rank runs this. Input errors and invalid runs are
+detected on every rank alike (the checks are collective), so each rank exits with the same
+status and rank 0 prints the message. Any other exception on any rank prints that rank's
+traceback and calls ``MPI_Abort``: the job ends within seconds instead of hanging in a
+collective.
 """
 
 from __future__ import annotations
@@ -23,24 +29,54 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("--quiet", action="store_true", help="no progress line")
     args = parser.parse_args(argv)
     t_start = time.perf_counter()
+    from mpi4py import MPI
+
     from .scene import SceneError, load_scene
     from .simulation import Simulation, SimulationError
 
+    comm = MPI.COMM_WORLD
+    root = comm.Get_rank() == 0
     try:
         scene = load_scene(args.scene)
         out = Path(args.out) if args.out else Path("runs") / scene.info.name
-        _check_writable(out)
-        sim = Simulation(scene, out_dir=out, restart=args.restart)
-        sys.stderr.write(f"pardem: {scene.info.name}: {sim.n_free} particles, dt = {sim.dt:.4g} s,"
-                         f" ready in {time.perf_counter() - t_start:.2f} s; output in {out}\n")
+        _collective(comm, _check_writable, out)
+        sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm)
+        if root:
+            sys.stderr.write(
+                f"pardem: {scene.info.name}: {sim.n_free} particles, dt = {sim.dt:.4g} s, "
+                f"{sim.decomp.describe()}, ready in {time.perf_counter() - t_start:.2f} s; "
+                f"output in {out}\n")
         sim.run(end=args.end, progress=not args.quiet)
     except SceneError as e:
-        sys.stderr.write(f"pardem: error: {e}\n")
+        if root:
+            sys.stderr.write(f"pardem: error: {e}\n")
         return 2
     except SimulationError as e:
-        sys.stderr.write(f"pardem: run stopped: {e}\n")
+        if root:
+            sys.stderr.write(f"pardem: run stopped: {e}\n")
         return 3
+    except BaseException:
+        if comm.Get_size() > 1:
+            import traceback
+
+            sys.stderr.write(f"pardem: rank {comm.Get_rank()} failed:\n{traceback.format_exc()}")
+            sys.stderr.flush()
+            comm.Abort(1)
+        raise
     return 0
+
+
+def _collective(comm, fn, *args) -> None:
+    """Run fn on rank 0; if it raises, raise the same error on every rank."""
+    error = None
+    if comm.Get_rank() == 0:
+        try:
+            fn(*args)
+        except Exception as e:  # re-raised on every rank below
+            error = e
+    error = comm.bcast(error, root=0)
+    if error is not None:
+        raise error
 
 
 def _check_writable(out: Path) -> None:

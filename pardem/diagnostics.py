@@ -41,10 +41,13 @@ def kinetic_energy(ps, n_move):
 
 
 @nb.njit(**JIT)
-def elastic_energy(ps, pairs, prm):
-    """Energy (J) stored in the normal springs of touching particle pairs and tangential springs."""
+def elastic_energy(ps, pairs, prm, n_own):
+    """Energy (J) stored in the normal and tangential springs of touching particle pairs whose
+    lower-gid partner is owned (index < n_own), so that no pair is counted on two ranks."""
     e = 0.0
     for k in range(pairs.count[0]):
+        if pairs.i[k] >= n_own:
+            continue
         d = pair_overlap(ps, pairs.i[k], pairs.j[k])
         if d > 0.0:
             e += 0.5 * prm.k_n * d * d
@@ -83,12 +86,15 @@ def max_overlap_ratio(ps, pairs, prm, r_out):
 
 
 @nb.njit(**JIT)
-def touching_pairs(ps, pairs):
-    """Indices into the pair list of the pairs that touch now."""
+def touching_pairs(ps, pairs, n_own):
+    """Indices into the pair list of the pairs that touch now and whose lower-gid partner is
+    owned (index < n_own)."""
     out = np.empty(pairs.count[0], np.int64)
     m = 0
     for k in range(pairs.count[0]):
         i, j = pairs.i[k], pairs.j[k]
+        if i >= n_own:
+            continue
         dx = ps.x[i, 0] - ps.x[j, 0]
         dy = ps.x[i, 1] - ps.x[j, 1]
         rs = ps.radius[i] + ps.radius[j]
@@ -98,11 +104,12 @@ def touching_pairs(ps, pairs):
     return out[:m]
 
 
-def contact_table(ps, pairs, prm, friction: bool, damping: bool) -> dict[str, np.ndarray]:
-    """Touching particle pairs: ``ids`` [M,2] (gid of i < gid of j), ``normal`` [M,2] (unit, from j
+def contact_table(ps, pairs, prm, friction: bool, damping: bool,
+                  n_own: int) -> dict[str, np.ndarray]:
+    """Touching particle pairs whose lower-gid partner is owned (index < n_own): ``ids`` [M,2] (gid of i < gid of j), ``normal`` [M,2] (unit, from j
     to i), ``overlap`` [M] (m), ``normal_force`` [M] (N, on i along n), ``tangential_force``
     [M,2] (N, on i), ``spring`` [M,2] (m, xi). Forces on j are the negatives."""
-    k = touching_pairs(ps, pairs)
+    k = touching_pairs(ps, pairs, n_own)
     i, j = pairs.i[k], pairs.j[k]
     d = ps.x[i] - ps.x[j]
     dist = np.hypot(d[:, 0], d[:, 1])

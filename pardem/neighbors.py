@@ -20,9 +20,11 @@ from .jit import JIT
 
 
 @nb.njit(**JIT)
-def build_pairs(x, radius, gid, kind, n, skin, pi, pj):
-    """Fill pi, pj with all pairs closer than a_i + a_j + skin (centre distance), excluding
-    pairs of two prescribed bodies, sorted by (gid[pi], gid[pj]) with gid[pi] < gid[pj].
+def build_pairs(x, radius, gid, n_own, n, skin, pi, pj):
+    """Fill pi, pj with all pairs closer than a_i + a_j + skin (centre distance) among the first
+    n particles that have a partner among the first n_own (the owned free particles; this
+    excludes pairs of two wall disks, of two ghosts, and of a ghost with a wall disk), sorted
+    by (gid[pi], gid[pj]) with gid[pi] < gid[pj].
     Returns the number of pairs found; if it exceeds pi.size the arrays hold only a prefix and
     the caller must grow them and call again."""
     cap = pi.size
@@ -63,7 +65,7 @@ def build_pairs(x, radius, gid, kind, n, skin, pi, pj):
             for iy in range(max(cy[i] - 1, 0), min(cy[i] + 2, ncy)):
                 j = head[iy * ncx + ix]
                 while j >= 0:
-                    if gid[j] > gi and (kind[i] == 0 or kind[j] == 0):
+                    if gid[j] > gi and (i < n_own or j < n_own):
                         dx = x[i, 0] - x[j, 0]
                         dy = x[i, 1] - x[j, 1]
                         cut = radius[i] + radius[j] + skin

@@ -24,13 +24,15 @@ import numpy as np
 
 from . import diagnostics as diag
 from .contact import LawOptions
+from .decomposition import Decomposition, merge_history
 from .neighbors import build_pairs, carry_history, ring_candidates
 from .output.checkpoint import ARRAYS, load_checkpoint, save_checkpoint
 from .output.snapshots import write_snapshot
 from .placement import initial_configuration
 from .scene import Scene, SceneError, write_scene
-from .state import Pairs, Params, new_clock, new_pairs, new_particles
-from .stepper import BAD_PARTICLE, NEED_REBUILD, StepOptions, make_stepper
+from .state import (FREE, Pairs, Params, join_rows, new_clock, new_pairs, new_particles,
+                    particles_from_rows, take_rows)
+from .stepper import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
 from .walls import outer_radius
 
@@ -49,8 +51,6 @@ class Simulation:
 
     def __init__(self, scene: Scene, out_dir: str | Path | None = None,
                  restart: str | Path | None = None, comm=None):
-        if comm is not None and comm.Get_size() > 1:
-            raise NotImplementedError("the MPI sector decomposition is not implemented yet")
         self.scene = scene
         self.out_dir = Path(out_dir) if out_dir is not None else None
         self.dt = resolve_dt(scene)
@@ -63,7 +63,21 @@ class Simulation:
         self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "snapshots": 0.0,
                        "checkpoints": 0.0, "progress": 0.0}
         self.n_rebuilds = 0
+        g = scene.geometry
+        c = scene.contact
+        skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
         init = initial_configuration(scene)
+        self.prm = Params(
+            dt=self.dt, k_n=c.k_n, gamma_n=c.gamma_n, k_t=c.k_t, mu=c.mu,
+            mu_b_g=c.mu_bottom * c.gravity,
+            r_in=g.inner_radius if g else 0.0, omega_in=g.omega_inner if g else 0.0,
+            r_out=g.outer_radius if g else 0.0, r_out0=g.outer_start_radius if g else 0.0,
+            t_comp=g.compression_time if g else 0.0, skin=skin,
+            escape_radius=g.outer_start_radius + 0.5 * g.wall_particle_diameter if g else math.inf)
+        self.n_free = init.n_free
+        self.decomp = Decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
+                                    g.inner_radius if g else 0.0)
+        # Every rank builds the whole initial state (cheap, deterministic), then keeps its share.
         n = init.radius.size
         ps = new_particles(n, self.friction)
         ps.gid[:] = np.arange(n)
@@ -77,65 +91,89 @@ class Simulation:
         ps.inv_inertia[:] = 2.0 / (init.mass * init.radius**2)  # I = m d^2 / 8
         ps.phi0[:] = init.phi0
         ps.e0[:] = np.column_stack([np.cos(init.phi0), np.sin(init.phi0)])
-        self.ps = ps
-        g = scene.geometry
-        c = scene.contact
-        skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
-        self.prm = Params(
-            dt=self.dt, k_n=c.k_n, gamma_n=c.gamma_n, k_t=c.k_t, mu=c.mu,
-            mu_b_g=c.mu_bottom * c.gravity,
-            r_in=g.inner_radius if g else 0.0, omega_in=g.omega_inner if g else 0.0,
-            r_out=g.outer_radius if g else 0.0, r_out0=g.outer_start_radius if g else 0.0,
-            t_comp=g.compression_time if g else 0.0, skin=skin,
-            escape_radius=g.outer_start_radius + 0.5 * g.wall_particle_diameter if g else math.inf)
-        self.n_free = init.n_free
         self.clock = new_clock(init.n_free, n, self.prm.r_out0)
-        self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.friction)
+        history = None
         if restart is not None:
-            self._restore(restart)
-        else:
-            self._rebuild()
-            self.stepper.compute_forces(self.ps, self.pairs, self.clock, self.prm)
+            history = self._restore(ps, restart)
+        self.decomp.place_sectors(ps.x[:init.n_free])
+        owner = self.decomp.sectors.owner(ps.x[:init.n_free])
+        mine = np.flatnonzero(owner == self.decomp.rank)
+        rows = join_rows([take_rows(ps, mine, self.friction),
+                          take_rows(ps, np.arange(init.n_free, n), self.friction)])
+        self.ps = particles_from_rows(rows, rows["gid"].size, self.friction)
+        self.clock.n_move[0] = mine.size
+        self.clock.n_local[0] = rows["gid"].size
+        self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.friction)
+        self._rebuild(history=history, rebalance=False)
+        if restart is None:
+            self._compute_forces()
 
     def refresh(self) -> None:
         """Rebuild the neighbour list and recompute forces after the state was edited by hand
         (tests, prepared initial conditions). Springs of pairs that still touch are kept."""
         self._rebuild()
-        self.stepper.compute_forces(self.ps, self.pairs, self.clock, self.prm)
+        self._compute_forces()
+
+    def _compute_forces(self) -> None:
+        n = int(self.clock.n_local[0])
+        v2 = float((self.ps.v[:n] ** 2).sum(axis=1).max()) if n else 0.0
+        self.stepper.compute_forces(self.ps, self.pairs, self.clock, self.prm, self.decomp.max(v2))
 
     @property
     def time(self) -> float:
         return float(self.clock.step[0] * self.dt)
 
     # -- neighbour list -------------------------------------------------------------------
-    def _rebuild(self, old_keys=None) -> None:
-        ps, pairs, clock = self.ps, self.pairs, self.clock
-        n = int(clock.n_local[0])
-        if old_keys is None and self.friction:
-            c = int(pairs.count[0])
-            old_keys = (ps.gid[pairs.i[:c]], ps.gid[pairs.j[:c]], pairs.xi[:c].copy())
+    def _rebuild(self, history=None, rebalance: bool = True) -> None:
+        """New neighbour list; under MPI first migrate particles and exchange ghosts. Springs are
+        carried over by gid keys (from ``history`` if given, else from the current list)."""
+        clock = self.clock
+        if history is None and self.friction:
+            history = self._spring_history()
+        if self.decomp.parallel:
+            n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
+            own = take_rows(self.ps, np.arange(n_move), self.friction)
+            walls = take_rows(self.ps, np.arange(n_move, n_local), self.friction)
+            if rebalance:
+                self.decomp.rebalance(own["x"])
+            own, ghosts, history = self.decomp.distribute(own, history)
+            rows = join_rows([own, walls, ghosts])
+            need = rows["gid"].size
+            cap = self.ps.gid.size if need <= self.ps.gid.size else int(1.25 * need)
+            self.ps = particles_from_rows(rows, cap, self.friction)
+            clock.n_move[0] = own["gid"].size
+            clock.n_local[0] = own["gid"].size + walls["gid"].size
+            clock.n_ghost[0] = ghosts["gid"].size
+        ps, pairs = self.ps, self.pairs
+        n = int(clock.n_local[0] + clock.n_ghost[0])
+        n_move = int(clock.n_move[0])
         ps.x_ref[:n] = ps.x[:n]
         r_out_now = outer_radius(self.time, self.prm)[0]
         clock.r_out_ref[0] = r_out_now
-        count = build_pairs(ps.x, ps.radius, ps.gid, ps.kind, n, self.prm.skin, pairs.i, pairs.j)
+        count = build_pairs(ps.x, ps.radius, ps.gid, n_move, n, self.prm.skin, pairs.i, pairs.j)
         if count > pairs.i.size:
             pairs = self._grow_pairs(count + count // 2, pairs.wall.size)
-            build_pairs(ps.x, ps.radius, ps.gid, ps.kind, n, self.prm.skin, pairs.i, pairs.j)
+            build_pairs(ps.x, ps.radius, ps.gid, n_move, n, self.prm.skin, pairs.i, pairs.j)
         if self.friction:
-            carry_history(*old_keys, ps.gid[pairs.i[:count]], ps.gid[pairs.j[:count]],
+            carry_history(*history, ps.gid[pairs.i[:count]], ps.gid[pairs.j[:count]],
                           pairs.xi[:count])
-        if not self.options.walls:
-            pairs.count[0] = count
-        else:
-            nw = ring_candidates(ps.x, ps.radius, int(clock.n_move[0]), self.prm.r_in,
-                                 r_out_now, self.prm.skin, pairs.wall)
+        if self.options.walls:
+            nw = ring_candidates(ps.x, ps.radius, n_move, self.prm.r_in, r_out_now,
+                                 self.prm.skin, pairs.wall)
             if nw > pairs.wall.size:
                 pairs = self._grow_pairs(pairs.i.size, nw + nw // 2, keep=count)
-                ring_candidates(ps.x, ps.radius, int(clock.n_move[0]), self.prm.r_in,
-                                r_out_now, self.prm.skin, pairs.wall)
+                ring_candidates(ps.x, ps.radius, n_move, self.prm.r_in, r_out_now,
+                                self.prm.skin, pairs.wall)
             pairs.wall_count[0] = nw
         pairs.count[0] = count
         self.n_rebuilds += 1
+
+    def _spring_history(self):
+        """Springs of the current list that are non-zero, keyed by (gid_lo, gid_hi), sorted."""
+        ps, pairs = self.ps, self.pairs
+        c = int(pairs.count[0])
+        live = np.flatnonzero((pairs.xi[:c, 0] != 0.0) | (pairs.xi[:c, 1] != 0.0))
+        return ps.gid[pairs.i[live]], ps.gid[pairs.j[live]], pairs.xi[live].copy()
 
     def _grow_pairs(self, cap: int, wall_cap: int, keep: int = 0) -> Pairs:
         new = new_pairs(cap, wall_cap, self.friction)
@@ -147,15 +185,18 @@ class Simulation:
     # -- running ---------------------------------------------------------------------------
     def run(self, end: float | None = None, progress: bool = True) -> None:
         """Advance to time ``end`` (s; default the scene's [time] end), writing snapshots and
-        checkpoints into ``out_dir`` (if set) and a progress line to stderr."""
+        checkpoints into ``out_dir`` (if set) and a progress line to stderr (rank 0). Under MPI
+        every rank calls this; chunk sizes and report times are rank 0's decisions."""
         end = self.scene.time.end if end is None else end
         end_step = int(round(end / self.dt))
         out = self.scene.output
         snap_every = max(1, int(round(out.snapshot_interval / self.dt)))
         ckpt_every = max(1, int(round(out.checkpoint_interval / self.dt)))
+        root = self.decomp.rank == 0
         if self.out_dir is not None:
-            self.out_dir.mkdir(parents=True, exist_ok=True)
-            write_scene(self.scene, self.out_dir / "scene.toml")
+            if root:
+                self.out_dir.mkdir(parents=True, exist_ok=True)
+                write_scene(self.scene, self.out_dir / "scene.toml")
             if self.clock.step[0] % snap_every == 0:
                 self._timed("snapshots", self.write_snapshot)
         wall0, step0 = time.perf_counter(), int(self.clock.step[0])
@@ -171,34 +212,41 @@ class Simulation:
             if t1 - t0 > 0 and done > 0:  # aim at ~0.25 s of compiled work per call
                 chunk = int(min(max(done * 0.25 / (t1 - t0), 100), 1_000_000))
             step = int(self.clock.step[0])
+            report = progress and (t1 - last_report > 1.0 or step >= end_step)
+            chunk, report = self.decomp.bcast((chunk, report))
             if self.out_dir is not None:
                 if step % snap_every == 0:
                     self._timed("snapshots", self.write_snapshot)
                 if step % ckpt_every == 0:
                     self._timed("checkpoints", self.write_checkpoint)
-            if progress and (t1 - last_report > 1.0 or step >= end_step):
+            if report:
                 last_report = t1
                 self._timed("progress", self._report, wall0, step0, end_step)
         if self.out_dir is not None:
             self._timed("checkpoints", self.write_checkpoint)
-        if progress:
+        if progress and root:
             sys.stderr.write("\n" + self.breakdown() + "\n")
 
     def advance_steps(self, n: int) -> None:
-        """Take n steps without output (tests, benchmarks)."""
+        """Take n steps without output (tests, benchmarks); collective under MPI."""
         self._advance_to(int(self.clock.step[0]) + n)
 
     def _advance_to(self, target: int) -> None:
         while True:
             t0 = time.perf_counter()
-            status, bad = self.stepper.advance(self.ps, self.pairs, self.clock, self.prm, target)
+            status, bad = self.stepper.advance(self.ps, self.pairs, self.clock, self.prm,
+                                               self.decomp.halo, target)
             t1 = time.perf_counter()
             self.timers["forces+integration"] += t1 - t0
-            if status == NEED_REBUILD:
+            if status == NEED_REBUILD:  # every rank returns at the same step (global maxima)
                 self._rebuild()
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
             elif status == BAD_PARTICLE:
-                raise SimulationError(self._bad_particle_message(bad))
+                message = self._bad_particle_message(bad) if bad >= 0 else None
+                raise SimulationError(self.decomp.first_message(message))
+            elif status == MPI_FAILED:
+                raise RuntimeError(f"MPI ghost exchange failed on rank {self.decomp.rank} at "
+                                   f"step {int(self.clock.step[0])}")
             else:
                 return
 
@@ -208,6 +256,9 @@ class Simulation:
         self.timers[stage] += time.perf_counter() - t0
 
     def _report(self, wall0: float, step0: int, end_step: int) -> None:
+        e_kin, overlap = self.kinetic_energy(), self.max_overlap()  # collective
+        if self.decomp.rank != 0:
+            return
         step = int(self.clock.step[0])
         elapsed = time.perf_counter() - wall0
         rate = (step - step0) / elapsed if elapsed > 0 else 0.0
@@ -215,14 +266,15 @@ class Simulation:
         sys.stderr.write(
             f"\rt = {self.time:9.3f} / {end_step * self.dt:.3f} s | {rate:9.0f} steps/s | "
             f"{rate * self.n_free / 1e6:6.2f} M particle-steps/s | ETA {eta:7.1f} s | "
-            f"E_kin {self.kinetic_energy():.3e} J | max overlap {100 * self.max_overlap():.2f}% d ")
+            f"E_kin {e_kin:.3e} J | max overlap {100 * overlap:.2f}% d ")
         sys.stderr.flush()
 
     def breakdown(self) -> str:
         total = sum(self.timers.values()) or 1.0
         rows = [f"  {k:<20s} {v:9.3f} s  {100 * v / total:5.1f} %" for k, v in self.timers.items()]
         steps = int(self.clock.step[0])
-        return "\n".join([f"time per stage ({steps} steps, {self.n_rebuilds} neighbour builds):",
+        return "\n".join([f"time per stage on rank {self.decomp.rank} ({steps} steps, "
+                          f"{self.n_rebuilds} neighbour builds; {self.decomp.describe()}):",
                           *rows])
 
     def _bad_particle_message(self, k: int) -> str:
@@ -231,75 +283,130 @@ class Simulation:
                 f"({self.ps.v[k, 0]:.6g}, {self.ps.v[k, 1]:.6g}) m/s (non-finite, or outside the "
                 f"cell); the last checkpoint is kept")
 
-    # -- measurements -------------------------------------------------------------------------
+    # -- measurements (collective under MPI: every rank must call them) ----------------------
     def kinetic_energy(self) -> float:
-        return float(diag.kinetic_energy(self.ps, int(self.clock.n_move[0])))
+        return float(self.decomp.sum(diag.kinetic_energy(self.ps, int(self.clock.n_move[0]))))
 
     def total_energy(self) -> float:
         """Kinetic + elastic energy (J): disk-disk springs and flat-ring springs."""
-        e = self.kinetic_energy() + diag.elastic_energy(self.ps, self.pairs, self.prm)
+        n_move = int(self.clock.n_move[0])
+        e = diag.elastic_energy(self.ps, self.pairs, self.prm, n_move)
         if self.options.walls:
             r_out = outer_radius(self.time, self.prm)[0]
             e += diag.ring_elastic_energy(self.ps, self.pairs, self.prm, r_out)
-        return float(e)
+        return self.kinetic_energy() + float(self.decomp.sum(e))
 
     def max_overlap(self) -> float:
         """Largest overlap over the diameter of the smaller free particle in the contact."""
         r_out = outer_radius(self.time, self.prm)[0]
-        return float(diag.max_overlap_ratio(self.ps, self.pairs, self.prm, r_out))
+        return float(self.decomp.max(diag.max_overlap_ratio(self.ps, self.pairs, self.prm, r_out)))
 
-    def contacts(self) -> dict[str, np.ndarray]:
+    def _local_contacts(self) -> dict[str, np.ndarray]:
+        """Contacts whose lower-gid partner this rank owns (so each is reported once)."""
         e = self.scene.effects
-        return diag.contact_table(self.ps, self.pairs, self.prm, self.friction, e.normal_damping)
+        self.sync_ghost_velocities()
+        return diag.contact_table(self.ps, self.pairs, self.prm, self.friction,
+                                  e.normal_damping, int(self.clock.n_move[0]))
 
-    def particle_arrays(self) -> dict[str, np.ndarray]:
-        """Current particle data sorted by id (the snapshot layout)."""
-        ps, n = self.ps, int(self.clock.n_local[0])
-        order = np.argsort(ps.gid[:n], kind="stable")
-        c = self.contacts()["ids"]
-        coord = np.bincount(np.searchsorted(ps.gid[:n][order], c.ravel()), minlength=n)
-        return {"id": ps.gid[order], "kind": ps.kind[order], "position": ps.x[order],
-                "velocity": ps.v[order], "omega": ps.omega[order], "theta": ps.theta[order],
-                "radius": ps.radius[order], "mass": ps.mass[order], "force": ps.f[order],
-                "torque": ps.tau[order], "coordination": coord}
+    def sync_ghost_velocities(self) -> None:
+        """Give the ghosts their owners' current v and omega (collective; the step loop refreshes
+        only what the forces need, so output and diagnostics call this first)."""
+        if self.decomp.parallel:
+            first = int(self.clock.n_local[0])
+            n_move, n_ghost = int(self.clock.n_move[0]), int(self.clock.n_ghost[0])
+            self.ps.v[first:first + n_ghost] = self.decomp.ghost_values(self.ps.v[:n_move])
+            self.ps.omega[first:first + n_ghost] = self.decomp.ghost_values(
+                self.ps.omega[:n_move])
+
+    def contacts(self) -> dict[str, np.ndarray] | None:
+        """Touching pairs of the whole cell sorted by (gid_lo, gid_hi) (diagnostics.contact_table
+        columns); on rank 0 only (None on the others)."""
+        return self.decomp.gather_rows(self._local_contacts(), key="ids")
+
+    def particle_arrays(self) -> dict[str, np.ndarray] | None:
+        """Particle data of the whole cell sorted by id (the snapshot layout); rank 0 only."""
+        ps, n_move = self.ps, int(self.clock.n_move[0])
+        rows = slice(0, int(self.clock.n_local[0]) if self.decomp.rank == 0 else n_move)
+        mine = {"id": ps.gid[rows], "kind": ps.kind[rows], "position": ps.x[rows],
+                "velocity": ps.v[rows], "omega": ps.omega[rows], "theta": ps.theta[rows],
+                "radius": ps.radius[rows], "mass": ps.mass[rows], "force": ps.f[rows],
+                "torque": ps.tau[rows]}
+        if self.decomp.parallel:
+            mine["rank"] = np.full(mine["id"].size, self.decomp.rank, np.int32)
+            mine["rank"][n_move:] = -1  # wall disks: prescribed, moved by every rank
+        out = self.decomp.gather_rows(mine, key="id")
+        contacts = self.contacts()
+        if out is None:
+            return None
+        _clear_wall_loads(out, "kind", "force", "torque")
+        ids = contacts["ids"]
+        out["coordination"] = np.bincount(np.searchsorted(out["id"], ids.ravel()),
+                                          minlength=out["id"].size)
+        return out
 
     # -- output ---------------------------------------------------------------------------------
     def write_snapshot(self) -> None:
         every = max(1, int(round(self.scene.output.snapshot_interval / self.dt)))
-        write_snapshot(self.out_dir, int(self.clock.step[0]) // every, self.time,
-                       int(self.clock.step[0]), self.particle_arrays(),
-                       self.contacts() if self.scene.output.contacts else None)
+        arrays = self.particle_arrays()
+        contacts = self.contacts() if self.scene.output.contacts else None
+        if self.decomp.rank == 0:
+            write_snapshot(self.out_dir, int(self.clock.step[0]) // every, self.time,
+                           int(self.clock.step[0]), arrays, contacts)
 
-    def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict[str, object]]:
-        ps, pairs, n = self.ps, self.pairs, int(self.clock.n_local[0])
-        arrays = {k: getattr(ps, k)[:n] if getattr(ps, k).shape[0] else getattr(ps, k)
-                  for k in ARRAYS}
-        c = int(pairs.count[0])
-        arrays["pair_lo"] = ps.gid[pairs.i[:c]]
-        arrays["pair_hi"] = ps.gid[pairs.j[:c]]
-        arrays["pair_xi"] = pairs.xi[:c] if self.friction else np.zeros((0, 2))
+    def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
+        """The whole state gathered on rank 0 (None on the others), sorted by gid."""
+        ps, n_move = self.ps, int(self.clock.n_move[0])
+        rows = slice(0, int(self.clock.n_local[0]) if self.decomp.rank == 0 else n_move)
+        mine = {k: getattr(ps, k)[rows] for k in ARRAYS if k != "xi_wall" or self.friction}
+        arrays = self.decomp.gather_rows(mine)
+        springs = self._spring_history() if self.friction else None
+        if self.friction and self.decomp.parallel:
+            gathered = self.decomp.gather_rows(
+                {"key": np.column_stack(springs[:2]), "xi": springs[2]}, key="key")
+            springs = None if gathered is None else merge_history(
+                [(gathered["key"][:, 0], gathered["key"][:, 1], gathered["xi"])])
+        if arrays is None:
+            return None
+        _clear_wall_loads(arrays, "kind", "f", "tau")
+        if not self.friction:
+            arrays["xi_wall"] = np.zeros((0, 2))
+        arrays["pair_lo"] = springs[0] if springs else np.zeros(0, np.int64)
+        arrays["pair_hi"] = springs[1] if springs else np.zeros(0, np.int64)
+        arrays["pair_xi"] = springs[2] if springs else np.zeros((0, 2))
         attrs = {"step": int(self.clock.step[0]), "time": self.time, "dt": self.dt,
                  "ring_angle": self.prm.omega_in * self.time,
-                 "fingerprint": self.scene.fingerprint(), "n_free": self.n_free}
+                 "fingerprint": self.scene.fingerprint(), "n_free": self.n_free,
+                 "ranks": self.decomp.size}
         return arrays, attrs
 
     def write_checkpoint(self, path: str | Path | None = None) -> None:
-        arrays, attrs = self.checkpoint_state()
-        save_checkpoint(path or self.out_dir / "checkpoint.h5", arrays, attrs)
+        state = self.checkpoint_state()
+        if state is not None:
+            save_checkpoint(path or self.out_dir / "checkpoint.h5", *state)
 
-    def _restore(self, path: str | Path) -> None:
-        arrays, attrs = load_checkpoint(path)
+    def _restore(self, ps, path: str | Path):
+        """Fill the whole-cell arrays ps from a checkpoint (read on rank 0, sent to all);
+        returns the spring history."""
+        arrays, attrs = self.decomp.bcast_call(load_checkpoint, path)
         if attrs["fingerprint"] != self.scene.fingerprint():
             raise SceneError(f"--restart {path}: the checkpoint belongs to a different scene "
                              "(geometry, particles, contact law, effects or dt differ)")
         if attrs["dt"] != self.dt:
             raise SceneError(f"--restart {path}: checkpoint dt = {attrs['dt']} s differs from "
                              f"the scene's dt = {self.dt} s")
-        n = int(self.clock.n_local[0])
+        n = ps.gid.size
         if arrays["gid"].size != n:
             raise SceneError(f"--restart {path}: {arrays['gid'].size} particles in the "
                              f"checkpoint, {n} in the scene")
         for k in ARRAYS:
-            getattr(self.ps, k)[: arrays[k].shape[0]] = arrays[k]
+            getattr(ps, k)[: arrays[k].shape[0]] = arrays[k]
         self.clock.step[0] = int(attrs["step"])
-        self._rebuild(old_keys=(arrays["pair_lo"], arrays["pair_hi"], arrays["pair_xi"]))
+        return (arrays["pair_lo"], arrays["pair_hi"], arrays["pair_xi"]) if self.friction else None
+
+
+def _clear_wall_loads(arrays: dict[str, np.ndarray], kind: str, force: str, torque: str) -> None:
+    """Wall disks are prescribed: each rank adds only its own particles' contacts to them, so
+    their force and torque are not a state; report 0 (ring loads come from the contact table)."""
+    walls = arrays[kind] != FREE
+    arrays[force][walls] = 0.0
+    arrays[torque][walls] = 0.0

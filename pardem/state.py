@@ -5,7 +5,7 @@ Stage: data. Every compiled kernel reads and writes these arrays in place; nothi
 during a step. Units are SI throughout.
 
 Layout invariants
-- Particles are stored as [moving free particles | prescribed bodies (wall disks)]. Each particle
+- Particles are stored as [owned free particles | wall disks | ghosts]. Each particle
   has a global id ``gid``; free particles have gids 0..N_free-1 and wall disks the gids after them,
   so "sum a particle's contacts in gid order" also fixes where wall contacts fall in the sum.
 - The pair list holds candidate pairs (Verlet list) in canonical order: sorted by
@@ -105,7 +105,9 @@ class Params(NamedTuple):
 class Clock(NamedTuple):
     """Integer clock. step[0]: steps taken (time = step * dt, never accumulated, so that restarts
     and ranks agree bit for bit). phase[0]: 0 = step complete, 1 = drifted but forces pending.
-    n_move[0]: particles integrated (the leading block). n_local[0]: particles stored.
+    n_move[0]: particles integrated (the leading block: free particles this rank owns).
+    n_local[0]: owned particles + wall disks (the bodies this rank moves). n_ghost[0]: ghost
+    copies of other ranks' particles, stored after them (0 on one rank).
     r_out_ref[0] (float array, m): outer-ring radius at the last neighbour build.
     reach[0] (m): bound on how much any overlap can change in half a step, 2 max|v| dt/2
     (pairs that close to touching get their share of the damping force).
@@ -115,6 +117,7 @@ class Clock(NamedTuple):
     phase: np.ndarray
     n_move: np.ndarray
     n_local: np.ndarray
+    n_ghost: np.ndarray
     r_out_ref: np.ndarray
     reach: np.ndarray
 
@@ -143,5 +146,29 @@ def new_clock(n_move: int, n_local: int, r_out0: float) -> Clock:
     return Clock(
         step=np.zeros(1, np.int64), phase=np.zeros(1, np.int64),
         n_move=np.array([n_move], np.int64), n_local=np.array([n_local], np.int64),
+        n_ghost=np.zeros(1, np.int64),
         r_out_ref=np.array([r_out0]), reach=np.zeros(1),
     )
+
+
+def particle_fields(friction: bool) -> tuple[str, ...]:
+    """Names of the per-particle arrays (``xi_wall`` only with tangential friction)."""
+    return tuple(k for k in Particles._fields if friction or k != "xi_wall")
+
+
+def take_rows(ps: Particles, idx, friction: bool) -> dict[str, np.ndarray]:
+    """Copies of the rows ``idx`` of every per-particle array."""
+    return {k: getattr(ps, k)[idx] for k in particle_fields(friction)}
+
+
+def join_rows(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
+    return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
+
+
+def particles_from_rows(rows: dict[str, np.ndarray], capacity: int, friction: bool) -> Particles:
+    """Particle arrays of the given capacity holding ``rows`` at the front."""
+    ps = new_particles(capacity, friction)
+    n = rows["gid"].shape[0]
+    for k, v in rows.items():
+        getattr(ps, k)[:n] = v
+    return ps

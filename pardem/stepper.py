@@ -6,8 +6,11 @@ many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
     half kick   v += dt/2 f/m, w += dt/2 tau/I
     drift       x += dt v, theta += dt w;  rings and wall disks moved to t + dt;
                 predict v(t+dt) = v + dt/2 f(t)/m for the velocity-dependent forces
+    ghosts      under MPI: neighbours' boundary particles refreshed (x, v_pred, w_pred), and
+                every rank learns the global largest displacement and speed (mpi_native.py)
     (stop here and return NEED_REBUILD if any body moved more than skin/2 since the last
-     neighbour build; the caller rebuilds the list and calls ``advance`` again, which resumes)
+     neighbour build; the caller rebuilds the list, migrating particles between ranks, and
+     calls ``advance`` again, which resumes)
     forces      pair contacts in canonical pair order, then flat ring contacts
     half kick   (then bottom friction)
 
@@ -16,7 +19,13 @@ velocity-space Coulomb friction: it removes at most mu_b g dt of speed per step 
 reverses the velocity, so a disk at rest with small loads stays exactly at rest and nothing
 divides by zero.
 
-Reads/writes: Particles, Pairs (springs), Clock; reads Params.
+Reads/writes: Particles, Pairs (springs), Clock; reads Params, Halo.
+
+Rank independence: each rank stores [owned free particles | all wall disks | ghosts]; the pair
+list holds every pair with an owned partner, sorted by (lower gid, higher gid), so each owned
+particle's contacts are added in gid order on any number of ranks, and a pair seen by two ranks
+is computed from the same inputs in the same orientation on both. The only global quantities
+(largest displacement and speed) are maxima, which are exact.
 
 The stages are module-level jitted functions taking the effect switches as arguments (the
 ``fx`` tuple: damping, friction, clip, rotation, bottom_friction, walls) and inlined into
@@ -35,9 +44,10 @@ import numba as nb
 
 from .contact import LawOptions, contact_law, pair_force
 from .jit import INLINE, JIT
+from .mpi_native import refresh_ghosts
 from .walls import outer_radius, place_wall_disks
 
-OK, NEED_REBUILD, BAD_PARTICLE = 0, 1, 2
+OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED = 0, 1, 2, 3
 
 
 class StepOptions(NamedTuple):
@@ -50,8 +60,8 @@ class StepOptions(NamedTuple):
 
 
 class Stepper(NamedTuple):
-    """Compiled functions of one scene: ``advance(ps, pairs, clock, prm, target_step) ->
-    (status, particle_index)`` and ``compute_forces(ps, pairs, clock, prm)``."""
+    """Compiled functions of one scene: ``advance(ps, pairs, clock, prm, halo, target_step) ->
+    (status, particle_index)`` and ``compute_forces(ps, pairs, clock, prm, v2_max)``."""
 
     advance: Callable
     compute_forces: Callable
@@ -156,7 +166,9 @@ def kick(ps, n_move, h, prm, fx, closing):
 
 @nb.njit(**INLINE)
 def drift(ps, clock, prm, fx):
-    """Move free bodies and walls to t + dt; return (status, index of a bad particle)."""
+    """Move free bodies and walls to t + dt. Returns ``(bad, disp, v2)``: the index of a
+    particle that became non-finite or left the cell (-1: none), the largest displacement since
+    the neighbour build plus the ring's, and the largest squared speed (m^2/s^2)."""
     rotation, walls = fx[3], fx[5]
     dt = prm.dt
     h = 0.5 * dt
@@ -185,8 +197,6 @@ def drift(ps, clock, prm, fx):
         max_d2 = max(max_d2, dx * dx + dy * dy)
     clock.step[0] += 1
     clock.phase[0] = 1
-    if bad >= 0:
-        return BAD_PARTICLE, bad
     ring_move = 0.0
     if walls:
         t = clock.step[0] * dt
@@ -200,11 +210,7 @@ def drift(ps, clock, prm, fx):
             dy = ps.x[i, 1] - ps.x_ref[i, 1]
             max_d2 = max(max_d2, dx * dx + dy * dy)
         ring_move = abs(outer_radius(t, prm)[0] - clock.r_out_ref[0])
-    clock.reach[0] = math.sqrt(max_v2) * dt  # 2 max|v| dt/2
-    # the list must hold every pair within reach of touching: 2 max_disp + reach <= skin
-    if math.sqrt(max_d2) + ring_move + 0.5 * clock.reach[0] > 0.5 * prm.skin:
-        return NEED_REBUILD, -1
-    return OK, -1
+    return bad, math.sqrt(max_d2) + ring_move, max_v2
 
 
 @functools.lru_cache(maxsize=None)
@@ -214,29 +220,38 @@ def make_stepper(opts: StepOptions) -> Stepper:
           opts.bottom_friction, opts.walls)
 
     @nb.njit(**JIT)
-    def advance(ps, pairs, clock, prm, target):
+    def advance(ps, pairs, clock, prm, halo, target):
         h = 0.5 * prm.dt
         n_move = clock.n_move[0]
+        n_all = clock.n_local[0] + clock.n_ghost[0]
         while clock.step[0] < target or clock.phase[0] == 1:
             if clock.phase[0] == 0:
                 kick(ps, n_move, h, prm, fx, False)
-                status, bad = drift(ps, clock, prm, fx)
-                if status != OK:
-                    return status, bad
-            forces(ps, pairs, clock.n_local[0], prm, clock.step[0] * prm.dt, clock.reach[0], fx)
+                bad, disp, v2 = drift(ps, clock, prm, fx)
+                # ghosts to t + dt; every rank learns the global maxima (one rank: no-op)
+                err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0], bad >= 0,
+                                                        disp, v2)
+                if err != 0:
+                    return MPI_FAILED, -1
+                if bad_any:
+                    return BAD_PARTICLE, bad
+                clock.reach[0] = math.sqrt(v2) * prm.dt  # 2 max|v| dt/2
+                # the list must hold every pair within reach of touching:
+                # 2 max_disp + reach <= skin
+                if disp + 0.5 * clock.reach[0] > 0.5 * prm.skin:
+                    return NEED_REBUILD, -1
+            forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], fx)
             kick(ps, n_move, h, prm, fx, True)
             clock.phase[0] = 0
         return OK, -1
 
     @nb.njit(**JIT)
-    def compute_forces(ps, pairs, clock, prm):
-        """Forces of the current state with synchronous velocities (start of a run)."""
-        n = clock.n_local[0]
+    def compute_forces(ps, pairs, clock, prm, v2):
+        """Forces of the current state with synchronous velocities (start of a run); v2 is the
+        largest squared speed over all ranks (m^2/s^2). Ghost velocities must be current."""
+        n = clock.n_local[0] + clock.n_ghost[0]
         ps.v_pred[:n] = ps.v[:n]
         ps.w_pred[:n] = ps.omega[:n]
-        v2 = 0.0
-        for i in range(n):
-            v2 = max(v2, ps.v[i, 0] ** 2 + ps.v[i, 1] ** 2)
         clock.reach[0] = math.sqrt(v2) * prm.dt
         forces(ps, pairs, n, prm, clock.step[0] * prm.dt, clock.reach[0], fx)
 

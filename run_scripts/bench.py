@@ -1,17 +1,21 @@
-"""Benchmark: flow-particle-steps per second on couette_B after compression, and start-up cost.
+"""Benchmark: flow-particle-steps per second on couette_B after compression, on 1 and 2 ranks,
+and start-up cost.
 
-    python run_scripts/bench.py [--steps 20000] [--repeats 5] [--startup]
+    python run_scripts/bench.py [--steps 20000] [--repeats 5] [--ranks 1 2] [--startup]
 
-Compresses scene B once (t = 0 .. 2.5 s, not timed), checkpoints it, then times ``--repeats``
-runs of ``--steps`` shear steps, each restarted from that checkpoint, on one core
-(NUMBA_NUM_THREADS=1). Prints every run, the median, and the per-stage breakdown.
-``--startup`` also measures `pardem run` from process start to the first step, with an empty
-numba cache (cold) and again with the cache filled (warm).
+Compresses scene B once (t = 0 .. 2.5 s, not timed) and checkpoints it. Then, for each rank
+count, times ``--repeats`` runs of ``--steps`` shear steps, each a fresh ``mpiexec -n P`` job
+restarted from that checkpoint (NUMBA_NUM_THREADS=1, one core per rank; the clock starts after
+10 warm-up steps and stops at the last step of the slowest rank). Prints every run, the median,
+rank 0's per-stage breakdown and the 2-rank speed-up. ``--startup`` also measures `pardem run`
+from process start to the first step, with an empty numba cache (cold) and again with the cache
+filled (warm).
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import os
 import statistics
 import subprocess
@@ -24,36 +28,70 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 HERE = Path(__file__).resolve().parent
 
 
-def throughput(steps: int, repeats: int) -> None:
+def compress(ckpt: Path) -> None:
     from pardem.scene import load_scene
     from pardem.simulation import Simulation
 
-    scene = load_scene(HERE / "couette_B.toml")
+    sim = Simulation(load_scene(HERE / "couette_B.toml"))
+    t0 = time.perf_counter()
+    sim.run(end=2.5, progress=False)
+    print(f"compression to t = 2.5 s: {time.perf_counter() - t0:.1f} s wall, "
+          f"{sim.clock.step[0]} steps, largest overlap {100 * sim.max_overlap():.2f} % d")
+    sim.write_checkpoint(ckpt)
+
+
+def worker(ckpt: str, steps: int) -> None:
+    """One timed run (under mpiexec): prints a JSON line on rank 0."""
+    from mpi4py import MPI
+
+    from pardem.scene import load_scene
+    from pardem.simulation import Simulation
+
+    comm = MPI.COMM_WORLD
+    run = Simulation(load_scene(HERE / "couette_B.toml"), restart=ckpt, comm=comm)
+    run.advance_steps(10)  # compiled code loaded, caches warm
+    for key in run.timers:
+        run.timers[key] = 0.0
+    run.n_rebuilds = 0
+    comm.Barrier()
+    t0 = time.perf_counter()
+    run.advance_steps(steps)
+    comm.Barrier()
+    wall = time.perf_counter() - t0
+    ghosts = comm.gather(int(run.clock.n_ghost[0]), root=0)
+    if comm.rank == 0:
+        print(json.dumps({"wall": wall, "n_free": run.n_free, "rebuilds": run.n_rebuilds,
+                          "ghosts": ghosts, "breakdown": run.breakdown()}))
+
+
+def throughput(steps: int, repeats: int, ranks: list[int]) -> None:
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    mpiexec = Path(sys.executable).parent / "mpiexec"
+    medians = {}
     with tempfile.TemporaryDirectory() as tmp:
         ckpt = Path(tmp) / "compressed.h5"
-        sim = Simulation(scene)
-        t0 = time.perf_counter()
-        sim.run(end=2.5, progress=False)
-        print(f"compression to t = 2.5 s: {time.perf_counter() - t0:.1f} s wall, "
-              f"{sim.clock.step[0]} steps, largest overlap {100 * sim.max_overlap():.2f} % d")
-        sim.write_checkpoint(ckpt)
-        rates = []
-        for k in range(repeats):
-            run = Simulation(scene, restart=ckpt)
-            run.advance_steps(10)  # compiled code loaded, caches warm
-            for key in run.timers:
-                run.timers[key] = 0.0
-            run.n_rebuilds = 0
-            t0 = time.perf_counter()
-            run.advance_steps(steps)
-            wall = time.perf_counter() - t0
-            rates.append(run.n_free * steps / wall)
-            print(f"run {k + 1}: {steps} steps in {wall:.3f} s -> {rates[-1] / 1e6:.2f} M "
-                  f"flow-particle-steps/s ({steps / wall:.0f} steps/s, "
-                  f"{run.n_rebuilds} neighbour builds)")
-        print(run.breakdown())
-        print(f"couette_B, {run.n_free} flow particles, 1 core: median "
-              f"{statistics.median(rates) / 1e6:.2f} M flow-particle-steps/s over {repeats} runs")
+        compress(ckpt)
+        for p in ranks:
+            rates = []
+            for k in range(repeats):
+                out = subprocess.run(
+                    [str(mpiexec), "-n", str(p), sys.executable, "-m", "mpi4py", __file__,
+                     "--worker", str(ckpt), "--steps", str(steps)],
+                    check=True, capture_output=True, text=True, env=env, timeout=3600)
+                res = json.loads(out.stdout.strip().splitlines()[-1])
+                rates.append(res["n_free"] * steps / res["wall"])
+                print(f"{p} rank(s), run {k + 1}: {steps} steps in {res['wall']:.3f} s -> "
+                      f"{rates[-1] / 1e6:.2f} M flow-particle-steps/s ({steps / res['wall']:.0f} "
+                      f"steps/s, {res['rebuilds']} neighbour builds, ghosts per rank "
+                      f"{res['ghosts']})", flush=True)
+            print(res["breakdown"])
+            medians[p] = statistics.median(rates)
+            print(f"couette_B, {res['n_free']} flow particles, {p} rank(s): median "
+                  f"{medians[p] / 1e6:.2f} M flow-particle-steps/s over {repeats} runs", flush=True)
+    if 1 in medians:
+        for p in medians:
+            if p > 1:
+                print(f"speed-up on {p} ranks: {medians[p] / medians[1]:.2f}")
 
 
 def startup() -> None:
@@ -74,11 +112,16 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--steps", type=int, default=20000)
     ap.add_argument("--repeats", type=int, default=5)
+    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--startup", action="store_true")
+    ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
+    if args.worker:
+        worker(args.worker, args.steps)
+        return
     if args.startup:
         startup()
-    throughput(args.steps, args.repeats)
+    throughput(args.steps, args.repeats, args.ranks)
 
 
 if __name__ == "__main__":

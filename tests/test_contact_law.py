@@ -127,7 +127,7 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     sim.advance_steps(200)
     ps, pr = sim.ps, sim.pairs
     xi0 = pr.xi.copy()
-    sim.stepper.compute_forces(ps, pr, sim.clock, sim.prm)
+    sim._compute_forces()
     f = np.zeros_like(ps.f)
     tau = np.zeros_like(ps.tau)
     for k in range(pr.count[0]):

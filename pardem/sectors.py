@@ -1,0 +1,90 @@
+"""Angular sectors of the annulus: which rank owns a point, which ranks need it as a ghost, and
+where to cut so that every rank holds about the same number of free particles.
+
+Stage: decomposition (geometry only; no MPI here). A sector is the wedge between two rays from
+the cell axis, ``edges[r] <= angle < edges[r + 1]`` (rad), with ``edges[P] = edges[0] + 2 pi``.
+A point outside wedge r is at distance min(distance to either boundary ray) from it; a rank
+needs every particle within the ghost width of its wedge. This works for any sector width,
+including a wedge wider than pi (2 ranks) and an empty one. A future radial x angular cut only
+has to supply ``owner`` and ``distance`` for its cells; nothing else depends on the shape.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numpy as np
+
+TWO_PI = 2.0 * math.pi
+
+
+class Sectors(NamedTuple):
+    """``edges`` [P+1] increasing angles (rad) of the sector boundaries."""
+
+    edges: np.ndarray
+
+    @property
+    def count(self) -> int:
+        return self.edges.size - 1
+
+    def owner(self, x: np.ndarray) -> np.ndarray:
+        """Rank owning each point of x [n,2] (m)."""
+        if self.count == 1:
+            return np.zeros(x.shape[0], np.int64)
+        a = np.mod(np.arctan2(x[:, 1], x[:, 0]) - self.edges[0], TWO_PI)
+        r = np.searchsorted(self.edges - self.edges[0], a, side="right") - 1
+        return np.clip(r, 0, self.count - 1)
+
+    def distance(self, x: np.ndarray, rank: int) -> np.ndarray:
+        """Distance (m) of points x [n,2] outside sector ``rank`` from that sector."""
+        return np.minimum(_ray_distance(x, self.edges[rank]),
+                          _ray_distance(x, self.edges[rank + 1]))
+
+    def arc_width(self, radius: float) -> float:
+        """Narrowest sector's arc length (m) at the given radius."""
+        return float(np.min(np.diff(self.edges)) * radius)
+
+
+def _ray_distance(x: np.ndarray, angle: float) -> np.ndarray:
+    ex, ey = math.cos(angle), math.sin(angle)
+    along = x[:, 0] * ex + x[:, 1] * ey
+    across = np.abs(x[:, 0] * ey - x[:, 1] * ex)
+    return np.where(along > 0.0, across, np.hypot(x[:, 0], x[:, 1]))
+
+
+def single() -> Sectors:
+    return Sectors(np.array([-math.pi, math.pi]))
+
+
+def balanced(hist: np.ndarray, ranks: int) -> Sectors:
+    """Sectors with about equal counts, cut at bin edges of an angular histogram of the free
+    particles (``hist`` [B]: counts in B equal bins over [-pi, pi))."""
+    if ranks == 1:
+        return single()
+    bins = hist.size
+    cum = np.concatenate([[0], np.cumsum(hist)])
+    total = cum[-1]
+    # The first cut sits at the emptiest bin edge, so that the wrap-around is cheap to cut.
+    start = int(np.argmin(hist))
+    cum = np.concatenate([cum[start:-1] - cum[start], cum[:start + 1] + total - cum[start]])
+    targets = total * np.arange(1, ranks) / ranks
+    cuts = np.searchsorted(cum, targets)
+    # Every wedge keeps at least one bin (it may hold no particle, which is allowed).
+    for k in range(ranks - 1):
+        low = cuts[k - 1] + 1 if k else 1
+        cuts[k] = min(max(cuts[k], low), bins - ranks + 1 + k)
+    edges = -math.pi + TWO_PI * (start + np.concatenate([[0], cuts, [bins]])) / bins
+    return Sectors(edges)
+
+
+def angle_histogram(x: np.ndarray, bins: int) -> np.ndarray:
+    a = np.arctan2(x[:, 1], x[:, 0])
+    k = np.clip(((a + math.pi) / TWO_PI * bins).astype(np.int64), 0, bins - 1)
+    return np.bincount(k, minlength=bins).astype(np.int64)
+
+
+def imbalance(counts: np.ndarray) -> float:
+    """Largest count over the mean, minus 1."""
+    mean = counts.mean()
+    return float(counts.max() / mean - 1.0) if mean > 0 else 0.0
