@@ -30,6 +30,7 @@ from .state import join_rows
 
 History = tuple[np.ndarray, np.ndarray, np.ndarray]  # (gid_lo, gid_hi, xi [m,2]) sorted by key
 HIST_BINS = 4096
+REBALANCE_EVERY = 8  # neighbour builds between balance checks (counts drift slowly)
 
 
 class Decomposition:
@@ -47,6 +48,7 @@ class Decomposition:
         self.halo: Halo = serial_halo()
         self.n_migrated = 0  # particles received from other ranks (cumulative)
         self.n_rebalanced = 0
+        self._builds = 0
         if self.size > 1 and inner_radius > 0.0:
             arc = 2.0 * math.pi * inner_radius / self.size
             if arc < ghost_width:
@@ -113,7 +115,8 @@ class Decomposition:
 
     def rebalance(self, x_owned: np.ndarray) -> None:
         """Re-cut the sectors if the owned counts differ by more than the threshold."""
-        if not self.comm:
+        self._builds += 1
+        if not self.comm or self._builds % REBALANCE_EVERY:
             return
         counts = np.array(self.comm.allgather(x_owned.shape[0]))
         if sec.imbalance(counts) <= self.balance_threshold:
@@ -140,20 +143,15 @@ class Decomposition:
                 springs = tuple(a[h] for a in history)
             outgoing[r] = ({k: v[sel] for k, v in own.items()}, springs)
         incoming = comm.alltoall(outgoing)
-        mine = owner == rank
-        parts = [{k: v[mine] for k, v in own.items()}]
-        spring_parts = [history] if history is not None else []
-        for item in incoming:
-            if item is not None:
-                parts.append(item[0])
-                self.n_migrated += item[0]["gid"].shape[0]
-                if item[1] is not None:
-                    spring_parts.append(item[1])
-        own = join_rows(parts)
-        order = np.argsort(own["gid"], kind="stable")
-        own = {k: v[order] for k, v in own.items()}
-        if history is not None:
-            history = merge_history(spring_parts)
+        arrivals = [item for item in incoming if item is not None]
+        if arrivals or np.any(owner != rank):  # otherwise own is unchanged (and sorted)
+            mine = owner == rank
+            own = join_rows([{k: v[mine] for k, v in own.items()}] + [a[0] for a in arrivals])
+            order = np.argsort(own["gid"], kind="stable")
+            own = {k: v[order] for k, v in own.items()}
+            self.n_migrated += sum(a[0]["gid"].shape[0] for a in arrivals)
+            if history is not None:
+                history = merge_history([history] + [a[1] for a in arrivals if a[1] is not None])
 
         send_idx: dict[int, np.ndarray] = {}
         outgoing = [None] * size

@@ -139,8 +139,11 @@ class Simulation:
             own, ghosts, history = self.decomp.distribute(own, history)
             rows = join_rows([own, walls, ghosts])
             need = rows["gid"].size
-            cap = self.ps.gid.size if need <= self.ps.gid.size else int(1.25 * need)
-            self.ps = particles_from_rows(rows, cap, self.friction)
+            if need <= self.ps.gid.size:  # every row is a copy: overwrite in place
+                for k, v in rows.items():
+                    getattr(self.ps, k)[:need] = v
+            else:
+                self.ps = particles_from_rows(rows, int(1.25 * need), self.friction)
             clock.n_move[0] = own["gid"].size
             clock.n_local[0] = own["gid"].size + walls["gid"].size
             clock.n_ghost[0] = ghosts["gid"].size

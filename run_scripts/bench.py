@@ -58,10 +58,17 @@ def worker(ckpt: str, steps: int) -> None:
     run.advance_steps(steps)
     comm.Barrier()
     wall = time.perf_counter() - t0
-    ghosts = comm.gather(int(run.clock.n_ghost[0]), root=0)
+    h = run.decomp.halo
+    mine = {"owned": int(run.clock.n_move[0]), "ghosts": int(run.clock.n_ghost[0]),
+            "pairs": int(run.pairs.count[0]), "neighbours": int(h.nbr.size),
+            "sent": int(h.send_idx.size), "allreduce": bool(h.ints[5] and h.ints[0]),
+            "step_us": 1e6 * run.timers["forces+integration"] / steps,
+            "rebuild_us": 1e6 * run.timers["neighbour rebuild"] / steps}
+    ranks = comm.gather(mine, root=0)
     if comm.rank == 0:
         print(json.dumps({"wall": wall, "n_free": run.n_free, "rebuilds": run.n_rebuilds,
-                          "ghosts": ghosts, "breakdown": run.breakdown()}))
+                          "ghosts": [r["ghosts"] for r in ranks], "ranks": ranks,
+                          "breakdown": run.breakdown()}))
 
 
 def throughput(steps: int, repeats: int, ranks: list[int]) -> None:
@@ -85,6 +92,14 @@ def throughput(steps: int, repeats: int, ranks: list[int]) -> None:
                       f"steps/s, {res['rebuilds']} neighbour builds, ghosts per rank "
                       f"{res['ghosts']})", flush=True)
             print(res["breakdown"])
+            print("  rank  owned  ghosts  pairs  nbrs  sent/step  bytes sent/step  msgs/step  "
+                  "step us  rebuild us/step")
+            for r, d in enumerate(res["ranks"]):
+                nbytes = 8 * (3 * d["neighbours"] + 5 * d["sent"])
+                msgs = 2 * d["neighbours"] + (1 if d["allreduce"] else 0)
+                print(f"  {r:4d} {d['owned']:6d} {d['ghosts']:7d} {d['pairs']:6d} "
+                      f"{d['neighbours']:5d} {d['sent']:10d} {nbytes:16d} {msgs:10d} "
+                      f"{d['step_us']:8.1f} {d['rebuild_us']:16.1f}")
             medians[p] = statistics.median(rates)
             print(f"couette_B, {res['n_free']} flow particles, {p} rank(s): median "
                   f"{medians[p] / 1e6:.2f} M flow-particle-steps/s over {repeats} runs", flush=True)
