@@ -104,11 +104,13 @@ def touching_pairs(ps, pairs, n_own):
     return out[:m]
 
 
-def contact_table(ps, pairs, prm, friction: bool, damping: bool,
-                  n_own: int) -> dict[str, np.ndarray]:
-    """Touching particle pairs whose lower-gid partner is owned (index < n_own): ``ids`` [M,2] (gid of i < gid of j), ``normal`` [M,2] (unit, from j
-    to i), ``overlap`` [M] (m), ``normal_force`` [M] (N, on i along n), ``tangential_force``
-    [M,2] (N, on i), ``spring`` [M,2] (m, xi). Forces on j are the negatives."""
+def contact_table(ps, pairs, prm, friction: bool, damping: bool, n_own: int,
+                  local_index: bool = False) -> dict[str, np.ndarray]:
+    """Touching particle pairs whose lower-gid partner is owned (index < n_own): ``ids`` [M,2]
+    (gid of i < gid of j), ``normal`` [M,2] (unit, from j to i), ``overlap`` [M] (m),
+    ``normal_force`` [M] (N, on i along n), ``tangential_force`` [M,2] (N, on i), ``spring``
+    [M,2] (m, xi). Forces on j are the negatives. ``local_index`` adds ``index`` [M,2], the
+    pair's storage indices on this rank."""
     k = touching_pairs(ps, pairs, n_own)
     i, j = pairs.i[k], pairs.j[k]
     d = ps.x[i] - ps.x[j]
@@ -121,5 +123,38 @@ def contact_table(ps, pairs, prm, friction: bool, damping: bool,
         dv = ps.v[i] - ps.v[j] + s[:, None] * np.column_stack([n[:, 1], -n[:, 0]])
         fn = fn - prm.gamma_n * np.einsum("ij,ij->i", dv, n)
     xi = pairs.xi[k] if friction else np.zeros((k.size, 2))
-    return {"ids": np.column_stack([ps.gid[i], ps.gid[j]]), "normal": n, "overlap": overlap,
-            "normal_force": fn, "tangential_force": -prm.k_t * xi, "spring": xi.copy()}
+    table = {"ids": np.column_stack([ps.gid[i], ps.gid[j]]), "normal": n, "overlap": overlap,
+             "normal_force": fn, "tangential_force": -prm.k_t * xi, "spring": xi.copy()}
+    if local_index:
+        table["index"] = np.column_stack([i, j])
+    return table
+
+
+def ring_contact_table(ps, pairs, prm, r_out: float, r_out_rate: float, friction: bool,
+                       damping: bool) -> dict[str, np.ndarray]:
+    """Touching contacts of free particles with the flat ring surfaces: ``index`` [M] (storage
+    index), ``id`` [M], ``ring`` [M] (1 inner, 2 outer), ``normal`` [M,2] (unit, from the
+    surface to the particle), ``overlap`` [M] (m), ``normal_force`` [M] (N, along n),
+    ``tangential_force`` [M,2] (N), ``spring`` [M,2] (m). Same law as the step loop, with
+    synchronous velocities."""
+    cand = pairs.wall[: pairs.wall_count[0]]
+    x = ps.x[cand]
+    r = np.hypot(x[:, 0], x[:, 1])
+    a = ps.radius[cand]
+    inner = r - prm.r_in < a
+    outer = ~inner & (r_out - r < a)
+    keep = inner | outer
+    idx, x, r, a, inner = cand[keep], x[keep], r[keep], a[keep], inner[keep]
+    er = x / r[:, None]
+    n = np.where(inner[:, None], er, -er)
+    overlap = np.where(inner, a - (r - prm.r_in), a - (r_out - r))
+    fn = prm.k_n * overlap
+    if damping:
+        # normal speed of the contact point relative to the surface (the outer ring moves
+        # radially at r_out_rate; the inner ring only turns)
+        wall_v = np.where(inner[:, None], 0.0, r_out_rate * er)
+        fn = fn - prm.gamma_n * np.einsum("ij,ij->i", ps.v[idx] - wall_v, n)
+    xi = ps.xi_wall[idx] if friction else np.zeros((idx.size, 2))
+    return {"index": idx, "id": ps.gid[idx], "ring": np.where(inner, 1, 2), "normal": n,
+            "overlap": overlap, "normal_force": fn, "tangential_force": -prm.k_t * xi,
+            "spring": xi.copy()}

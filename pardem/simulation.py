@@ -60,8 +60,9 @@ class Simulation:
             LawOptions(e.normal_damping, e.tangential_friction, e.clip_attractive_normal),
             e.rotation, e.bottom_friction, scene.info.kind == "couette")
         self.stepper = make_stepper(self.options)
-        self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "snapshots": 0.0,
-                       "checkpoints": 0.0, "progress": 0.0}
+        self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "averaging": 0.0,
+                       "snapshots": 0.0, "checkpoints": 0.0, "progress": 0.0}
+        self.rings = None  # the RingAverager of the last run() with an [averaging] table
         self.n_rebuilds = 0
         g = scene.geometry
         c = scene.contact
@@ -75,6 +76,7 @@ class Simulation:
             t_comp=g.compression_time if g else 0.0, skin=skin,
             escape_radius=g.outer_start_radius + 0.5 * g.wall_particle_diameter if g else math.inf)
         self.n_free = init.n_free
+        self._free_radii = init.radius[:init.n_free].copy()
         self.decomp = Decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
                                     g.inner_radius if g else 0.0)
         # Every rank builds the whole initial state (cheap, deterministic), then keeps its share.
@@ -202,12 +204,17 @@ class Simulation:
                 write_scene(self.scene, self.out_dir / "scene.toml")
             if self.clock.step[0] % snap_every == 0:
                 self._timed("snapshots", self.write_snapshot)
+        rings, avg_steps = self._ring_averager(end_step)
+        avg_set = set(avg_steps.tolist())
         wall0, step0 = time.perf_counter(), int(self.clock.step[0])
         chunk, last_report = 1000, 0.0
         while self.clock.step[0] < end_step:
             step = int(self.clock.step[0])
             target = min(end_step, (step // snap_every + 1) * snap_every,
                          (step // ckpt_every + 1) * ckpt_every, step + chunk)
+            upcoming = avg_steps[np.searchsorted(avg_steps, step, side="right"):]
+            if upcoming.size:
+                target = min(target, int(upcoming[0]))
             t0 = time.perf_counter()
             self._advance_to(target)
             t1 = time.perf_counter()
@@ -217,6 +224,8 @@ class Simulation:
             step = int(self.clock.step[0])
             report = progress and (t1 - last_report > 1.0 or step >= end_step)
             chunk, report = self.decomp.bcast((chunk, report))
+            if step in avg_set:
+                self._timed("averaging", rings.sample, self)
             if self.out_dir is not None:
                 if step % snap_every == 0:
                     self._timed("snapshots", self.write_snapshot)
@@ -227,8 +236,28 @@ class Simulation:
                 self._timed("progress", self._report, wall0, step0, end_step)
         if self.out_dir is not None:
             self._timed("checkpoints", self.write_checkpoint)
+            if rings is not None and rings.samples and root:
+                self._timed("averaging", rings.write, self.out_dir)
+        self.rings = rings
         if progress and root:
             sys.stderr.write("\n" + self.breakdown() + "\n")
+
+    def _ring_averager(self, end_step: int):
+        """The in-situ ring averager of the scene's [averaging] table (None without one) and its
+        sampling steps: the steps nearest to start, start + interval, ... <= end (no drift)."""
+        cfg, g = self.scene.averaging, self.scene.geometry
+        if cfg is None or g is None:
+            return None, np.zeros(0, np.int64)
+        from averaging.rings import RingAverager  # averaging builds on pardem, not vice versa
+
+        count = int(math.floor((cfg.end - cfg.start) / cfg.sample_interval + 1e-9)) + 1
+        steps = np.round((cfg.start + cfg.sample_interval * np.arange(count)) / self.dt)
+        steps = np.unique(steps.astype(np.int64))
+        steps = steps[(steps <= end_step) & (steps >= int(self.clock.step[0]))]
+        d_mean = 2.0 * float(np.mean(self._free_radii))
+        avg = RingAverager(g.inner_radius, g.outer_radius, cfg.ring_width, cfg.weighting,
+                           self.scene.contact.height, d_mean, self.decomp.comm)
+        return avg, steps
 
     def advance_steps(self, n: int) -> None:
         """Take n steps without output (tests, benchmarks); collective under MPI."""

@@ -1,0 +1,68 @@
+"""One sample's input to the ring sums: this rank's owned free particles and their contacts,
+each contact seen from the particle (normal towards it, force on it, spring in its orientation).
+
+Stage: averaging. Disk-disk contacts count for each free partner; contacts with wall disks and
+with the flat ring surfaces count for the free particle only (SPEC §4). Per particle, contacts
+keep the pair list's canonical order, so a particle's sum is the same on any number of ranks.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from pardem import diagnostics as diag
+from pardem.walls import outer_radius
+
+
+class Sample(NamedTuple):
+    """Particles x [n,2] (m), v [n,2] (m/s), omega [n] (rad/s), radius [n] (m), mass [n] (kg);
+    contacts of particle p in rows start[p]:start[p+1] of normal [m,2], overlap [m] (m),
+    force [m,2] (N, on p), spring [m,2] (m)."""
+
+    x: np.ndarray
+    v: np.ndarray
+    omega: np.ndarray
+    radius: np.ndarray
+    mass: np.ndarray
+    start: np.ndarray
+    normal: np.ndarray
+    overlap: np.ndarray
+    force: np.ndarray
+    spring: np.ndarray
+
+
+def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, spring) -> Sample:
+    """Build a Sample from per-contact rows already oriented towards ``owner`` (particle index)."""
+    order = np.argsort(owner, kind="stable")
+    start = np.zeros(radius.size + 1, np.int64)
+    np.cumsum(np.bincount(owner, minlength=radius.size), out=start[1:])
+    return Sample(x, v, omega, radius, mass, start, normal[order], overlap[order],
+                  force[order], spring[order])
+
+
+def sample_simulation(sim) -> Sample:
+    """This rank's sample of a running Simulation (collective under MPI: ghost velocities are
+    refreshed for the damping part of the contact forces)."""
+    sim.sync_ghost_velocities()
+    ps, pairs, prm, clock = sim.ps, sim.pairs, sim.prm, sim.clock
+    e = sim.scene.effects
+    n_move = int(clock.n_move[0])
+    n_all = int(clock.n_local[0] + clock.n_ghost[0])
+    t = diag.contact_table(ps, pairs, prm, sim.friction, e.normal_damping, n_all,
+                           local_index=True)
+    f = t["normal_force"][:, None] * t["normal"] + t["tangential_force"]
+    i, j = t["index"][:, 0], t["index"][:, 1]
+    as_i, as_j = i < n_move, j < n_move  # j < n_move: j is an owned free particle
+    parts = [(i[as_i], t["normal"][as_i], t["overlap"][as_i], f[as_i], t["spring"][as_i]),
+             (j[as_j], -t["normal"][as_j], t["overlap"][as_j], -f[as_j], -t["spring"][as_j])]
+    if sim.options.walls:
+        r_out, rate = outer_radius(sim.time, prm)
+        w = diag.ring_contact_table(ps, pairs, prm, r_out, rate, sim.friction, e.normal_damping)
+        fw = w["normal_force"][:, None] * w["normal"] + w["tangential_force"]
+        parts.append((w["index"], w["normal"], w["overlap"], fw, w["spring"]))
+    owner, normal, overlap, force, spring = (np.concatenate(c) for c in zip(*parts))
+    sl = slice(0, n_move)
+    return from_contacts(ps.x[sl], ps.v[sl], ps.omega[sl], ps.radius[sl], ps.mass[sl],
+                         owner.astype(np.int64), normal, overlap, force, spring)

@@ -1,0 +1,160 @@
+"""Ring averages of a run: sampling (in situ), time averaging, derived continuum fields, files.
+
+Stage: averaging. ``RingAverager.sample(sim)`` adds one sample (collective under MPI: one
+Allreduce). ``fields()`` forms the continuum quantities from the time-averaged sums (SPEC §4:
+average the sums first, then take ratios and A = <F>^-1), with standard errors from the spread
+of the per-sample values (samples treated as independent; the sampling interval should exceed
+the correlation time). ``write(dir)`` writes rings.h5 and rings.csv atomically (rank 0);
+``read_rings(dir)`` reads them back.
+
+Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
+    r (m) ring centre; r_tilde = (r - R_i)/d_mean
+    nu = vol/V; v_r, v_phi (m/s) = mom/vol; omega (rad/s) = spin/vol; C = coord/vol
+    F_ab = fabric/V; sigma_ab (N/m^2) = stress/V
+    eps_ab = (pi h/V) deform . A with A = F^-1 (NaN where F is singular)
+    M_zr, M_zphi (N/m) = couple/V; kappa_zr, kappa_zphi (1/m) = (pi h/V) curv . A
+"""
+
+from __future__ import annotations
+
+import math
+import os
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+from .collect import sample_simulation
+from .sums import COL, COLUMNS, N_COLUMNS, UNITS, accumulate, reduce_sums
+from .weights import WEIGHTINGS
+
+TENSORS = ("F", "sigma", "eps")
+FIELD_UNITS = {"r": "m", "r_tilde": "1", "nu": "1", "v_r": "m/s", "v_phi": "m/s",
+               "omega": "rad/s", "C": "1", "M_zr": "N/m", "M_zphi": "N/m",
+               "kappa_zr": "1/m", "kappa_zphi": "1/m"}
+for comp in ("rr", "rphi", "phir", "phiphi"):
+    FIELD_UNITS[f"F_{comp}"] = "1"
+    FIELD_UNITS[f"sigma_{comp}"] = "N/m^2"
+    FIELD_UNITS[f"eps_{comp}"] = "1"
+
+
+class RingAverager:
+    """Rings of width ``dr`` (m) from ``r_in`` to ``r_out`` (m) about the axis."""
+
+    def __init__(self, r_in: float, r_out: float, dr: float, weighting: str, height: float,
+                 d_mean: float, comm=None):
+        if weighting not in WEIGHTINGS:
+            raise ValueError(f"weighting {weighting!r}: allowed are {sorted(WEIGHTINGS)}")
+        self.r_in, self.dr, self.height, self.d_mean = r_in, dr, height, d_mean
+        self.n_rings = max(int(math.ceil((r_out - r_in) / dr - 1e-9)), 1)
+        self.exact = WEIGHTINGS[weighting] == WEIGHTINGS["exact"]
+        self.weighting = weighting
+        self.comm = comm
+        self.samples: list[np.ndarray] = []
+        self.times: list[float] = []
+
+    def sample(self, sim) -> None:
+        """Add the ring sums of the simulation's current state (collective under MPI)."""
+        s = sample_simulation(sim)
+        local = np.zeros((self.n_rings, N_COLUMNS))
+        accumulate(*s, self.height, self.r_in, self.dr, self.exact, local)
+        self.samples.append(reduce_sums(local, self.comm))
+        self.times.append(sim.time)
+
+    @property
+    def ring_centres(self) -> np.ndarray:
+        return self.r_in + (np.arange(self.n_rings) + 0.5) * self.dr
+
+    def fields(self) -> dict[str, np.ndarray]:
+        """Time-averaged fields and their standard errors (key + "_err")."""
+        if not self.samples:
+            raise ValueError("no samples taken")
+        stack = np.array(self.samples)
+        mean = derived(stack.mean(axis=0), self.ring_centres, self.dr, self.height)
+        out = {"r": self.ring_centres, "r_tilde": (self.ring_centres - self.r_in) / self.d_mean}
+        per = [derived(s, self.ring_centres, self.dr, self.height) for s in stack]
+        for key, value in mean.items():
+            out[key] = value
+            if len(per) > 1:
+                vals = np.array([p[key] for p in per])
+                out[key + "_err"] = np.nanstd(vals, axis=0, ddof=1) / math.sqrt(len(per))
+        return out
+
+    def write(self, out_dir: str | Path) -> None:
+        """rings.h5 (fields, errors, raw sums per sample) and rings.csv; atomic."""
+        out_dir = Path(out_dir)
+        f = self.fields()
+        tmp = out_dir / "rings.h5.tmp"
+        with h5py.File(tmp, "w") as h5:
+            h5.attrs.update({"format": "pardem-rings", "ring_width": self.dr,
+                             "inner_radius": self.r_in, "weighting": self.weighting,
+                             "height": self.height, "n_samples": len(self.samples)})
+            for key, value in f.items():
+                h5.create_dataset(f"fields/{key}", data=value)
+                h5[f"fields/{key}"].attrs["unit"] = FIELD_UNITS.get(key.removesuffix("_err"), "")
+            h5.create_dataset("sums", data=np.array(self.samples))
+            h5["sums"].attrs["columns"] = ",".join(COLUMNS)
+            h5["sums"].attrs["units"] = ",".join(UNITS[c] for c in COLUMNS)
+            h5.create_dataset("times", data=np.array(self.times))
+        os.replace(tmp, out_dir / "rings.h5")
+        keys = list(f)
+        header = ",".join(f"{k} [{FIELD_UNITS.get(k.removesuffix('_err'), '')}]" for k in keys)
+        tmp = out_dir / "rings.csv.tmp"
+        np.savetxt(tmp, np.column_stack([f[k] for k in keys]), delimiter=",", header=header,
+                   comments="")
+        os.replace(tmp, out_dir / "rings.csv")
+
+
+def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float) -> dict[str, np.ndarray]:
+    """Continuum fields from (time-averaged) ring sums s [n_rings, N_COLUMNS]."""
+    vol_ring = 2.0 * math.pi * h * r * dr
+    with np.errstate(invalid="ignore", divide="ignore"):
+        vol = s[:, COL["vol"]]
+        out = {"nu": vol / vol_ring, "v_r": s[:, COL["mom_r"]] / vol,
+               "v_phi": s[:, COL["mom_phi"]] / vol, "omega": s[:, COL["spin"]] / vol,
+               "C": s[:, COL["coord"]] / vol}
+        fabric = _tensor(s, "fabric") / vol_ring[:, None, None]
+        inv = _inverse(fabric)
+        sigma = _tensor(s, "stress") / vol_ring[:, None, None]
+        eps = (math.pi * h / vol_ring)[:, None, None] * _tensor(s, "deform") @ inv
+        couple = s[:, [COL["couple_r"], COL["couple_phi"]]] / vol_ring[:, None]
+        curv = (math.pi * h / vol_ring)[:, None] * np.einsum(
+            "ka,kab->kb", s[:, [COL["curv_r"], COL["curv_phi"]]], inv)
+    for name, t in (("F", fabric), ("sigma", sigma), ("eps", eps)):
+        for a, ca in enumerate(("r", "phi")):
+            for b, cb in enumerate(("r", "phi")):
+                out[f"{name}_{ca}{cb}"] = t[:, a, b]
+    out["M_zr"], out["M_zphi"] = couple[:, 0], couple[:, 1]
+    out["kappa_zr"], out["kappa_zphi"] = curv[:, 0], curv[:, 1]
+    return out
+
+
+def _tensor(s: np.ndarray, name: str) -> np.ndarray:
+    return np.stack([s[:, COL[f"{name}_rr"]], s[:, COL[f"{name}_rphi"]],
+                     s[:, COL[f"{name}_phir"]], s[:, COL[f"{name}_phiphi"]]],
+                    axis=-1).reshape(-1, 2, 2)
+
+
+def _inverse(t: np.ndarray) -> np.ndarray:
+    """2x2 inverses; NaN where the determinant is zero (a ring without contacts): never a crash,
+    never a silent zero."""
+    det = t[:, 0, 0] * t[:, 1, 1] - t[:, 0, 1] * t[:, 1, 0]
+    scale = np.abs(t).max(axis=(1, 2))
+    singular = ~(np.abs(det) > 1e-12 * scale**2)
+    det = np.where(singular, np.nan, det)
+    inv = np.empty_like(t)
+    inv[:, 0, 0] = t[:, 1, 1] / det
+    inv[:, 1, 1] = t[:, 0, 0] / det
+    inv[:, 0, 1] = -t[:, 0, 1] / det
+    inv[:, 1, 0] = -t[:, 1, 0] / det
+    return inv
+
+
+def read_rings(run_dir: str | Path) -> dict[str, np.ndarray]:
+    """Fields (with ``_err`` standard errors) from DIR/rings.h5, plus ``times`` and ``sums``."""
+    with h5py.File(Path(run_dir) / "rings.h5", "r") as h5:
+        out = {k: v[()] for k, v in h5["fields"].items()}
+        out["times"] = h5["times"][()]
+        out["sums"] = h5["sums"][()]
+        out["columns"] = tuple(h5["sums"].attrs["columns"].split(","))
+    return out
