@@ -24,7 +24,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .collect import sample_simulation
+from .collect import Sample, sample_simulation
 from .sums import COL, COLUMNS, N_COLUMNS, UNITS, accumulate, reduce_sums
 from .weights import WEIGHTINGS
 
@@ -55,11 +55,14 @@ class RingAverager:
 
     def sample(self, sim) -> None:
         """Add the ring sums of the simulation's current state (collective under MPI)."""
-        s = sample_simulation(sim)
+        self.add(sample_simulation(sim), sim.time)
+
+    def add(self, s: Sample, time: float) -> None:
+        """Add one sample (this rank's particles; the totals are reduced over ranks)."""
         local = np.zeros((self.n_rings, N_COLUMNS))
         accumulate(*s, self.height, self.r_in, self.dr, self.exact, local)
         self.samples.append(reduce_sums(local, self.comm))
-        self.times.append(sim.time)
+        self.times.append(time)
 
     @property
     def ring_centres(self) -> np.ndarray:

@@ -244,16 +244,15 @@ class Simulation:
 
     def _ring_averager(self, end_step: int):
         """The in-situ ring averager of the scene's [averaging] table (None without one) and its
-        sampling steps: the steps nearest to start, start + interval, ... <= end (no drift)."""
+        sampling steps: the multiples of round(sample_interval/dt) nearest to start .. end (the
+        snapshot rule, so offline averaging of snapshots sees the same states)."""
         cfg, g = self.scene.averaging, self.scene.geometry
         if cfg is None or g is None:
             return None, np.zeros(0, np.int64)
         from averaging.rings import RingAverager  # averaging builds on pardem, not vice versa
 
-        count = int(math.floor((cfg.end - cfg.start) / cfg.sample_interval + 1e-9)) + 1
-        steps = np.round((cfg.start + cfg.sample_interval * np.arange(count)) / self.dt)
-        steps = np.unique(steps.astype(np.int64))
-        steps = steps[(steps <= end_step) & (steps >= int(self.clock.step[0]))]
+        steps = sample_steps(cfg.start, cfg.end, cfg.sample_interval, self.dt)
+        steps = steps[(steps <= end_step) & (steps > int(self.clock.step[0]))]
         d_mean = 2.0 * float(np.mean(self._free_radii))
         avg = RingAverager(g.inner_radius, g.outer_radius, cfg.ring_width, cfg.weighting,
                            self.scene.contact.height, d_mean, self.decomp.comm)
@@ -355,6 +354,16 @@ class Simulation:
         columns); on rank 0 only (None on the others)."""
         return self.decomp.gather_rows(self._local_contacts(), key="ids")
 
+    def ring_contacts(self) -> dict[str, np.ndarray] | None:
+        """Contacts of free particles with the flat ring surfaces, sorted by particle id
+        (diagnostics.ring_contact_table columns without ``index``); rank 0 only."""
+        r_out, rate = outer_radius(self.time, self.prm)
+        e = self.scene.effects
+        t = diag.ring_contact_table(self.ps, self.pairs, self.prm, r_out, rate, self.friction,
+                                    e.normal_damping)
+        del t["index"]
+        return self.decomp.gather_rows(t, key="id")
+
     def particle_arrays(self) -> dict[str, np.ndarray] | None:
         """Particle data of the whole cell sorted by id (the snapshot layout); rank 0 only."""
         ps, n_move = self.ps, int(self.clock.n_move[0])
@@ -380,10 +389,13 @@ class Simulation:
     def write_snapshot(self) -> None:
         every = max(1, int(round(self.scene.output.snapshot_interval / self.dt)))
         arrays = self.particle_arrays()
-        contacts = self.contacts() if self.scene.output.contacts else None
+        contacts = ring = None
+        if self.scene.output.contacts:
+            contacts = self.contacts()
+            ring = self.ring_contacts() if self.options.walls else None
         if self.decomp.rank == 0:
             write_snapshot(self.out_dir, int(self.clock.step[0]) // every, self.time,
-                           int(self.clock.step[0]), arrays, contacts)
+                           int(self.clock.step[0]), arrays, contacts, ring)
 
     def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
         """The whole state gathered on rank 0 (None on the others), sorted by gid."""
@@ -442,3 +454,12 @@ def _clear_wall_loads(arrays: dict[str, np.ndarray], kind: str, force: str, torq
     walls = arrays[kind] != FREE
     arrays[force][walls] = 0.0
     arrays[torque][walls] = 0.0
+
+
+def sample_steps(start: float, end: float, interval: float, dt: float) -> np.ndarray:
+    """Steps k * every (every = round(interval/dt)) for k from round(start/(every dt)) to
+    round(end/(every dt)): evenly spaced samples that coincide with snapshots of that interval."""
+    every = max(1, int(round(interval / dt)))
+    k0 = int(round(start / (every * dt)))
+    k1 = int(round(end / (every * dt))) if math.isfinite(end) else k0 - 1
+    return every * np.arange(k0, k1 + 1, dtype=np.int64)

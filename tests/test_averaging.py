@@ -198,3 +198,28 @@ def test_ring_without_contacts_gives_nan_strain_not_a_crash():
     assert lonely.any()
     assert np.all(np.isnan(f["eps_rr"][lonely])) and np.all(np.isnan(f["kappa_zr"][lonely]))
     assert np.all(np.isfinite(f["nu"][lonely])) and np.all(np.isfinite(f["v_phi"][lonely]))
+
+
+def test_in_situ_and_offline_averaging_agree(tmp_path):
+    """The same run averaged while it runs and afterwards from its snapshots (pardem average)."""
+    from helpers import couette_scene
+
+    from averaging.rings import read_rings
+    from pardem.cli import main
+    from pardem.scene import write_scene
+
+    g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
+         "compression_time": 0.1, "omega_inner": 3.0}
+    scene = couette_scene(counts=(260, 40), geometry=g, output={"snapshot_interval": 0.05},
+                          averaging={"start": 0.15, "end": 0.3, "sample_interval": 0.05,
+                                     "weighting": "exact"})
+    write_scene(scene, tmp_path / "s.toml")
+    run = tmp_path / "run"
+    assert main(["run", str(tmp_path / "s.toml"), "--out", str(run), "--quiet"]) == 0
+    assert main(["average", str(run)]) == 0
+    live, offline = read_rings(run), read_rings(run / "offline")
+    assert live["sums"].shape == offline["sums"].shape and live["sums"].shape[0] == 4
+    np.testing.assert_array_equal(live["times"], offline["times"])
+    scale = np.abs(live["sums"]).max(axis=(0, 1))
+    assert np.all(np.abs(live["sums"] - offline["sums"]) <= 1e-12 * scale)
+    assert np.abs(live["sums"][:, :, COL["curv_r"]]).max() > 0  # springs and wall contacts in

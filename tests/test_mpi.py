@@ -133,7 +133,7 @@ def test_ring_sums_do_not_depend_on_the_number_of_ranks(tmp_path):
     sums = {}
     for n in (1, 2, 3):
         run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / f"r{n}"),
-                 "--end", "0.3", "--quiet"], n, module=False)
+                 "--end", "0.31", "--quiet"], n, module=False)
         sums[n] = read_rings(tmp_path / f"r{n}")["sums"]
     assert sums[1].shape[0] == 4  # samples at 0.15, 0.2, 0.25, 0.3 s
     assert np.abs(sums[1][:, :, 11]).max() > 0  # stress sums: the cell is loaded

@@ -11,6 +11,9 @@ Stage: output. Layout (all SI units; rows sorted by particle id):
         contacts/ ids [M,2] (id_i < id_j), normal [M,2] (unit, from j to i), overlap [M] m,
                   normal_force [M] N (on i, along normal), tangential_force [M,2] N (on i),
                   spring [M,2] m (tangential spring xi)
+        ring_contacts/ (free particles touching a flat ring surface) id [K], ring [K] (1 inner,
+                  2 outer), normal [K,2] (unit, from the surface to the particle), overlap [K] m,
+                  normal_force [K] N, tangential_force [K,2] N, spring [K,2] m
 
 A snapshot group is written under a temporary name and renamed when complete, so a reader never
 sees a half-written snapshot; the file is opened, appended and closed for every snapshot.
@@ -30,7 +33,8 @@ FILE = "particles.h5"
 
 def write_snapshot(out_dir: str | os.PathLike, index: int, time: float, step: int,
                    particles: dict[str, np.ndarray],
-                   contacts: dict[str, np.ndarray] | None) -> None:
+                   contacts: dict[str, np.ndarray] | None,
+                   ring_contacts: dict[str, np.ndarray] | None = None) -> None:
     path = Path(out_dir) / FILE
     with h5py.File(path, "a") as h5:
         h5.attrs["format"] = "pardem-snapshots"
@@ -47,16 +51,18 @@ def write_snapshot(out_dir: str | os.PathLike, index: int, time: float, step: in
         g.attrs["step"] = step
         for key, arr in particles.items():
             g.create_dataset(key, data=arr)
-        if contacts is not None:
-            c = g.create_group("contacts")
-            for key, arr in contacts.items():
-                c.create_dataset(key, data=arr)
+        for group, table in (("contacts", contacts), ("ring_contacts", ring_contacts)):
+            if table is not None:
+                c = g.create_group(group)
+                for key, arr in table.items():
+                    c.create_dataset(key, data=arr)
         snaps.move(tmp, name)
 
 
 def read_snapshots(out_dir: str | os.PathLike) -> Iterator[dict]:
     """Yield the snapshots of a run folder in time order: dicts with ``time``, ``step``, the
-    particle arrays keyed as in the layout above, and ``contacts`` (a dict, or absent)."""
+    particle arrays keyed as in the layout above, and ``contacts`` and ``ring_contacts`` (dicts,
+    or absent)."""
     path = Path(out_dir) / FILE
     if not path.exists():
         raise FileNotFoundError(f"no snapshots: {path} does not exist")
@@ -68,6 +74,6 @@ def read_snapshots(out_dir: str | os.PathLike) -> Iterator[dict]:
             for key, ds in g.items():
                 if isinstance(ds, h5py.Dataset):
                     snap[key] = ds[()]
-            if "contacts" in g:
-                snap["contacts"] = {k: v[()] for k, v in g["contacts"].items()}
+                else:
+                    snap[key] = {k: v[()] for k, v in ds.items()}
             yield snap
