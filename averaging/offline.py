@@ -72,7 +72,8 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
         free = snap["kind"] == 0
         if avg is None:
             avg = RingAverager(g.inner_radius, g.outer_radius, ring_width, weighting,
-                               scene.contact.height, 2.0 * float(snap["radius"][free].mean()))
+                               scene.contact.height, 2.0 * float(snap["radius"][free].mean()),
+                               scene.contact.k_n, g.omega_inner)
         avg.add(snapshot_sample(snap), snap["time"])
     if avg is None:
         raise SceneError(f"{run_dir}: no snapshot between t = {start} s and {end} s")

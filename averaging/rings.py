@@ -12,7 +12,15 @@ Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
     nu = vol/V; v_r, v_phi (m/s) = mom/vol; omega (rad/s) = spin/vol; C = coord/vol
     F_ab = fabric/V; sigma_ab (N/m^2) = stress/V
     eps_ab = (pi h/V) deform . A with A = F^-1 (NaN where F is singular)
-    M_zr, M_zphi (N/m) = couple/V; kappa_zr, kappa_zphi (1/m) = (pi h/V) curv . A
+    M_zr, M_zphi (N/m) = couple/V; kappa_zr, kappa_zphi (m) = (pi h/V) curv . A (the
+    SPEC's definition; the paper plots M/d^2 and kappa/d^2)
+    tr_T, dev_T (T_max - T_min), angle_T (deg, major eigenvector from e_r) of the symmetric
+    part of T = F, sigma, eps
+    D_rphi, W_rphi = (dv_phi/dr -+ v_phi/r)/2 (1/s); excess_spin = omega - W_rphi
+    stiffness = 2 pi E/k'_n = (2 pi/k'_n) tr sigma / tr eps; shear_resistance = pi G/k'_n =
+    (pi/k'_n) dev sigma / dev eps; mu_c = M_zr / kappa_zr (N/m^2); k'_n = k_n/h
+    v_phi_norm = v_phi/(Omega R_i); fit_v0, fit_s: v_phi_norm = v0 exp(-r_tilde/s) fitted
+    over r_tilde in [0.25, 8.1] (scalars, in rings.h5 only)
 """
 
 from __future__ import annotations
@@ -31,7 +39,12 @@ from .weights import WEIGHTINGS
 TENSORS = ("F", "sigma", "eps")
 FIELD_UNITS = {"r": "m", "r_tilde": "1", "nu": "1", "v_r": "m/s", "v_phi": "m/s",
                "omega": "rad/s", "C": "1", "M_zr": "N/m", "M_zphi": "N/m",
-               "kappa_zr": "1/m", "kappa_zphi": "1/m"}
+               "kappa_zr": "m", "kappa_zphi": "m"}
+FIELD_UNITS.update({"tr_F": "1", "dev_F": "1", "angle_F": "deg", "tr_sigma": "N/m^2",
+                    "dev_sigma": "N/m^2", "angle_sigma": "deg", "tr_eps": "1", "dev_eps": "1",
+                    "angle_eps": "deg", "D_rphi": "1/s", "W_rphi": "1/s", "excess_spin": "rad/s",
+                    "stiffness": "1", "shear_resistance": "1", "mu_c": "N/m^2", "v_phi_norm": "1",
+                    "fit_v0": "1", "fit_s": "1"})
 for comp in ("rr", "rphi", "phir", "phiphi"):
     FIELD_UNITS[f"F_{comp}"] = "1"
     FIELD_UNITS[f"sigma_{comp}"] = "N/m^2"
@@ -42,7 +55,7 @@ class RingAverager:
     """Rings of width ``dr`` (m) from ``r_in`` to ``r_out`` (m) about the axis."""
 
     def __init__(self, r_in: float, r_out: float, dr: float, weighting: str, height: float,
-                 d_mean: float, comm=None):
+                 d_mean: float, k_n: float, omega_in: float, comm=None):
         if weighting not in WEIGHTINGS:
             raise ValueError(f"weighting {weighting!r}: allowed are {sorted(WEIGHTINGS)}")
         self.r_in, self.dr, self.height, self.d_mean = r_in, dr, height, d_mean
@@ -50,6 +63,7 @@ class RingAverager:
         self.exact = WEIGHTINGS[weighting] == WEIGHTINGS["exact"]
         self.weighting = weighting
         self.comm = comm
+        self.k_n, self.omega_in = k_n, omega_in  # for 2 pi E / k'_n etc. and v_phi / (Omega R_i)
         self.samples: list[np.ndarray] = []
         self.times: list[float] = []
 
@@ -73,9 +87,13 @@ class RingAverager:
         if not self.samples:
             raise ValueError("no samples taken")
         stack = np.array(self.samples)
-        mean = derived(stack.mean(axis=0), self.ring_centres, self.dr, self.height)
-        out = {"r": self.ring_centres, "r_tilde": (self.ring_centres - self.r_in) / self.d_mean}
-        per = [derived(s, self.ring_centres, self.dr, self.height) for s in stack]
+        r = self.ring_centres
+        r_tilde = (r - self.r_in) / self.d_mean
+        args = (r, self.dr, self.height, r_tilde, self.k_n / self.height,
+                self.omega_in * self.r_in)
+        mean = derived(stack.mean(axis=0), *args)
+        out = {"r": r, "r_tilde": r_tilde}
+        per = [derived(s, *args) for s in stack]
         for key, value in mean.items():
             out[key] = value
             if len(per) > 1:
@@ -100,7 +118,7 @@ class RingAverager:
             h5["sums"].attrs["units"] = ",".join(UNITS[c] for c in COLUMNS)
             h5.create_dataset("times", data=np.array(self.times))
         os.replace(tmp, out_dir / "rings.h5")
-        keys = list(f)
+        keys = [k for k in f if np.ndim(f[k]) == 1]  # per-ring columns (fit scalars: h5 only)
         header = ",".join(f"{k} [{FIELD_UNITS.get(k.removesuffix('_err'), '')}]" for k in keys)
         tmp = out_dir / "rings.csv.tmp"
         np.savetxt(tmp, np.column_stack([f[k] for k in keys]), delimiter=",", header=header,
@@ -108,8 +126,10 @@ class RingAverager:
         os.replace(tmp, out_dir / "rings.csv")
 
 
-def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float) -> dict[str, np.ndarray]:
-    """Continuum fields from (time-averaged) ring sums s [n_rings, N_COLUMNS]."""
+def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarray | None = None,
+            k_n_2d: float = 1.0, wall_speed: float = 1.0) -> dict[str, np.ndarray]:
+    """Continuum fields from (time-averaged) ring sums s [n_rings, N_COLUMNS]; k_n_2d = k'_n =
+    k_n/h (N/m^2) and wall_speed = Omega R_i (m/s) set the paper's normalisations."""
     vol_ring = 2.0 * math.pi * h * r * dr
     with np.errstate(invalid="ignore", divide="ignore"):
         vol = s[:, COL["vol"]]
@@ -129,7 +149,42 @@ def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float) -> dict[str, np.n
                 out[f"{name}_{ca}{cb}"] = t[:, a, b]
     out["M_zr"], out["M_zphi"] = couple[:, 0], couple[:, 1]
     out["kappa_zr"], out["kappa_zphi"] = curv[:, 0], curv[:, 1]
+    for name, t in (("F", fabric), ("sigma", sigma), ("eps", eps)):
+        tr, dev, angle = eigen(t)
+        out[f"tr_{name}"], out[f"dev_{name}"], out[f"angle_{name}"] = tr, dev, angle
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dv = np.gradient(out["v_phi"], r) if r.size > 1 else np.zeros_like(r)
+        out["D_rphi"] = 0.5 * (dv - out["v_phi"] / r)
+        out["W_rphi"] = 0.5 * (dv + out["v_phi"] / r)
+        out["excess_spin"] = out["omega"] - out["W_rphi"]
+        out["stiffness"] = 2.0 * math.pi / k_n_2d * out["tr_sigma"] / out["tr_eps"]
+        out["shear_resistance"] = math.pi / k_n_2d * out["dev_sigma"] / out["dev_eps"]
+        out["mu_c"] = out["M_zr"] / out["kappa_zr"]
+        out["v_phi_norm"] = out["v_phi"] / wall_speed
+    if r_tilde is not None:
+        v0, decay = exponential_fit(r_tilde, out["v_phi_norm"])
+        out["fit_v0"], out["fit_s"] = np.array(v0), np.array(decay)
     return out
+
+
+def eigen(t: np.ndarray):
+    """Trace, deviator (T_max - T_min) and angle (deg, of the major eigenvector from e_r, in
+    (-90, 90]) of the symmetric part of 2x2 tensors t [n,2,2]."""
+    rr, pp = t[:, 0, 0], t[:, 1, 1]
+    rp = 0.5 * (t[:, 0, 1] + t[:, 1, 0])
+    half_diff = 0.5 * (rr - pp)
+    radius = np.hypot(half_diff, rp)
+    return rr + pp, 2.0 * radius, np.degrees(0.5 * np.arctan2(2.0 * rp, rr - pp))
+
+
+def exponential_fit(r_tilde: np.ndarray, v: np.ndarray, lo: float = 0.25, hi: float = 8.1):
+    """v = v0 exp(-r_tilde/s) by least squares of log v over lo <= r_tilde <= hi (the paper's
+    range); NaN if fewer than 3 positive values."""
+    sel = (r_tilde >= lo) & (r_tilde <= hi) & (v > 0) & np.isfinite(v)
+    if sel.sum() < 3:
+        return math.nan, math.nan
+    slope, icpt = np.polyfit(r_tilde[sel], np.log(v[sel]), 1)
+    return math.exp(icpt), -1.0 / slope if slope < 0 else math.inf
 
 
 def _tensor(s: np.ndarray, name: str) -> np.ndarray:

@@ -62,7 +62,7 @@ class Simulation:
         self.stepper = make_stepper(self.options)
         self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "averaging": 0.0,
                        "snapshots": 0.0, "checkpoints": 0.0, "progress": 0.0}
-        self.rings = None  # the RingAverager of the last run() with an [averaging] table
+        self.rings = None  # the in-situ RingAverager ([averaging] table), kept across run() calls
         self.n_rebuilds = 0
         g = scene.geometry
         c = scene.contact
@@ -251,11 +251,16 @@ class Simulation:
             return None, np.zeros(0, np.int64)
         from averaging.rings import RingAverager  # averaging builds on pardem, not vice versa
 
+        if self.rings is not None:  # a later run() call continues the same time average
+            steps = sample_steps(cfg.start, cfg.end, cfg.sample_interval, self.dt)
+            return self.rings, steps[(steps <= end_step) & (steps > int(self.clock.step[0]))]
+
         steps = sample_steps(cfg.start, cfg.end, cfg.sample_interval, self.dt)
         steps = steps[(steps <= end_step) & (steps > int(self.clock.step[0]))]
         d_mean = 2.0 * float(np.mean(self._free_radii))
         avg = RingAverager(g.inner_radius, g.outer_radius, cfg.ring_width, cfg.weighting,
-                           self.scene.contact.height, d_mean, self.decomp.comm)
+                           self.scene.contact.height, d_mean, self.scene.contact.k_n,
+                           g.omega_inner, self.decomp.comm)
         return avg, steps
 
     def advance_steps(self, n: int) -> None:

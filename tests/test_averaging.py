@@ -98,6 +98,17 @@ def hex_packing(a, delta, r_lo, r_hi):
     return x, p, n
 
 
+def hex_ring_sums(a, delta, h, k_n, r0, dr, exact):
+    """Ring sums of the compressed triangular packing between 0.1 and 0.16 m."""
+    x, p, n = hex_packing(a, delta, 0.1, 0.16)
+    cnt = x.shape[0]
+    smp = from_contacts(x, np.zeros_like(x), np.zeros(cnt), np.full(cnt, a), np.ones(cnt),
+                        p, n, np.full(p.size, delta), k_n * delta * n, np.zeros((p.size, 2)))
+    s = np.zeros((int(0.06 / dr), N_COLUMNS))
+    accumulate(*smp, h, r0, dr, exact, s)
+    return s
+
+
 def test_regular_packing_gives_the_mean_field_result():
     """Every contact has the same overlap delta and lever a - delta/2, so per particle
     -Sum f (x) l = k_n delta (a - delta/2) Sum n (x) n exactly; hence in every ring
@@ -105,14 +116,9 @@ def test_regular_packing_gives_the_mean_field_result():
     the paper's sigma = k'_n delta F/(pi a), eps = (delta/a) I up to the lever's delta/2a,
     and tr F = nu C identically. The only other error is round-off."""
     a, delta, h, k_n = A_SMALL, 2e-5, 6e-3, 352.1
-    x, p, n = hex_packing(a, delta, 0.1, 0.16)
-    cnt = x.shape[0]
-    smp = from_contacts(x, np.zeros_like(x), np.zeros(cnt), np.full(cnt, a), np.ones(cnt),
-                        p, n, np.full(p.size, delta), k_n * delta * n, np.zeros((p.size, 2)))
     r0, dr = 0.1, a / 4
-    n_rings = int(0.06 / dr)
-    s = np.zeros((n_rings, N_COLUMNS))
-    accumulate(*smp, h, r0, dr, True, s)
+    s = hex_ring_sums(a, delta, h, k_n, r0, dr, exact=True)
+    n_rings = s.shape[0]
     ring_vol = 2 * math.pi * h * (r0 + (np.arange(n_rings) + 0.5) * dr) * dr
 
     def tensor(name):
@@ -223,3 +229,40 @@ def test_in_situ_and_offline_averaging_agree(tmp_path):
     scale = np.abs(live["sums"]).max(axis=(0, 1))
     assert np.all(np.abs(live["sums"] - offline["sums"]) <= 1e-12 * scale)
     assert np.abs(live["sums"][:, :, COL["curv_r"]]).max() > 0  # springs and wall contacts in
+
+
+def test_derived_quantities_on_known_fields():
+    from averaging.rings import derived, eigen, exponential_fit
+
+    c, s_ = math.cos(math.radians(30)), math.sin(math.radians(30))
+    rot = np.array([[c, -s_], [s_, c]])
+    t = rot @ np.diag([3.0, 1.0]) @ rot.T
+    tr, dev, angle = eigen(t[None])
+    assert tr[0] == pytest.approx(4.0) and dev[0] == pytest.approx(2.0)
+    assert angle[0] == pytest.approx(30.0)
+    rt = np.linspace(0, 12, 60)
+    v0, s = exponential_fit(rt, 0.7 * np.exp(-rt / 1.6))
+    assert v0 == pytest.approx(0.7, rel=1e-12) and s == pytest.approx(1.6, rel=1e-12)
+    # rigid rotation v_phi = Omega r: no shear (D = 0), W = Omega, no excess spin if omega = W
+    r = np.linspace(0.1, 0.2, 50)
+    sums = np.zeros((50, N_COLUMNS))
+    sums[:, COL["vol"]] = 1.0
+    sums[:, COL["mom_phi"]] = 0.3 * r
+    sums[:, COL["spin"]] = 0.3
+    f = derived(sums, r, 0.002, 6e-3)
+    np.testing.assert_allclose(f["D_rphi"], 0.0, atol=1e-12)
+    np.testing.assert_allclose(f["W_rphi"], 0.3, rtol=1e-12)
+    np.testing.assert_allclose(f["excess_spin"], 0.0, atol=1e-12)
+
+
+def test_mean_field_stiffness_equals_trace_of_fabric():
+    """Paper eq.: in the mean field 2 pi E / k'_n = tr F (exactly, for equal overlaps)."""
+    from averaging.rings import derived
+
+    a, delta, h, k_n = A_SMALL, 2e-5, 6e-3, 352.1
+    r0, dr = 0.1, a / 4
+    s = hex_ring_sums(a, delta, h, k_n, r0, dr, exact=False)
+    r = r0 + (np.arange(s.shape[0]) + 0.5) * dr
+    f = derived(s, r, dr, h, (r - r0) / (2 * a), k_n / h, 1.0)
+    inside = f["nu"] > 0.5
+    np.testing.assert_allclose(f["stiffness"][inside], f["tr_F"][inside], rtol=1e-12)

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 from helpers import couette_scene
 
+from averaging.boundary import inner_ring_torque
 from pardem.neighbors import brute_force_pairs
 from pardem.simulation import Simulation
 
@@ -28,15 +29,19 @@ def sheared_b():
     """Scene B (the paper's counts and cell), compressed in 2 s, relaxed and sheared to t = 5 s
     (largest overlap measured there, 3 s after the ring stopped), then
     v_phi averaged over 20 snapshots (t = 5 .. 7 s) in rings one reference diameter wide."""
-    sim = Simulation(couette_scene(counts=(2545, 394)))
+    sim = Simulation(couette_scene(counts=(2545, 394), averaging={
+        "start": 5.0, "end": 7.0, "sample_interval": 0.1, "ring_width": 0.9275e-3}))
     sim.run(end=3.0, progress=False)
     transient = sim.max_overlap()
     sim.run(end=5.0, progress=False)
     print(f"\n largest overlap / d: 1 s after compression {transient:.4f} (transient)")
     overlap_after_compression = sim.max_overlap()
     total, count = np.zeros(30), np.zeros(30)
+    sim.torques = []  # torque of the particles on the inner ring at each 0.1 s
     for k in range(20):
         sim.run(end=5.0 + 0.1 * (k + 1), progress=False)
+        sim.torques.append(inner_ring_torque(sim.particle_arrays(), sim.contacts(),
+                                             sim.ring_contacts()))
         x, v = sim.ps.x[: sim.n_free], sim.ps.v[: sim.n_free]
         r = np.hypot(x[:, 0], x[:, 1])
         ring = ((r - 0.1035) / 8e-3).astype(int)
@@ -62,3 +67,31 @@ def test_inner_ring_drags_a_shear_band(sheared_b):
     assert v_phi[0] > 0.3
     assert abs(v_phi[10]) < 0.1 * v_phi[0]
     assert np.all(np.diff(v_phi[:5]) < 0)  # decays away from the inner ring
+
+
+def test_ring_averages_show_the_papers_physics(sheared_b):
+    """In-situ averages over t = 5 .. 7 s (21 samples): dilation and an exponential v_phi at the
+    inner ring, tr F = nu C, and torque balance: 2 pi h r^2 sigma_rphi is the same in every
+    ring and equals minus the torque the particles exert on the inner ring."""
+    sim = sheared_b[0]
+    f = sim.rings.fields()
+    assert len(sim.rings.samples) == 21  # t = 5.0 (nearest step), 5.1, ..., 7.0
+    rt = f["r_tilde"]
+    near, bulk = rt < 3, (rt > 5) & (rt < 10)
+    print(f"\nnu: r~ < 3: {f['nu'][near].mean():.3f}, 5 < r~ < 10: {f['nu'][bulk].mean():.3f}")
+    assert f["nu"][near].mean() < f["nu"][bulk].mean() - 0.02  # dilated zone at the ring
+    assert 0.3 < f["fit_v0"] < 1.5 and 0.5 < f["fit_s"] < 4.0
+    np.testing.assert_allclose(f["tr_F"], f["nu"] * f["C"], rtol=1e-10, atol=1e-12)
+    h = sim.scene.contact.height
+    carried = 2 * np.pi * h * f["r"] ** 2 * f["sigma_rphi"]  # N m, per ring
+    zone = (rt > 1) & (rt < 15)
+    mean, spread = carried[zone].mean(), carried[zone].std()
+    torque = np.array(sim.torques)
+    t_mean, t_err = torque.mean(), torque.std(ddof=1) / np.sqrt(torque.size)
+    print(f"\n2 pi h r^2 sigma_rphi over rings 1 < r~ < 15: mean {mean:.4f} N m, ring-to-ring "
+          f"spread {spread:.4f} (per-ring standard error ~{np.median(2 * np.pi * h * f['r'][zone] ** 2 * f['sigma_rphi_err'][zone]):.4f}); "
+          f"torque on the inner ring {t_mean:.4f} +- {t_err:.4f} N m; v_phi fit v0 = "
+          f"{f['fit_v0']:.3f}, s = {f['fit_s']:.3f}")
+    assert spread < 0.15 * abs(mean)  # flat across the rings
+    assert mean > 0 and t_mean < 0
+    assert abs(mean + t_mean) < 0.15 * abs(t_mean) + 3 * t_err
