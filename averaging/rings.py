@@ -2,9 +2,8 @@
 
 Stage: averaging. ``RingAverager.sample(sim)`` adds one sample (collective under MPI: one
 Allreduce). ``fields()`` forms the continuum quantities from the time-averaged sums (SPEC §4:
-average the sums first, then take ratios and A = <F>^-1), with standard errors from the spread
-of the per-sample values (samples treated as independent; the sampling interval should exceed
-the correlation time). ``write(dir)`` writes rings.h5 and rings.csv atomically (rank 0);
+average the sums first, then take ratios and A = <F>^-1), with standard errors from up to 8
+consecutive blocks of samples (see ``fields``). ``write(dir)`` writes rings.h5 and rings.csv atomically (rank 0);
 ``read_rings(dir)`` reads them back.
 
 Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
@@ -37,6 +36,7 @@ from .sums import COL, COLUMNS, N_COLUMNS, UNITS, accumulate, reduce_sums
 from .weights import WEIGHTINGS
 
 TENSORS = ("F", "sigma", "eps")
+ERROR_BLOCKS = 8  # consecutive blocks of samples for the standard errors
 FIELD_UNITS = {"r": "m", "r_tilde": "1", "nu": "1", "v_r": "m/s", "v_phi": "m/s",
                "omega": "rad/s", "C": "1", "M_zr": "N/m", "M_zphi": "N/m",
                "kappa_zr": "m", "kappa_zphi": "m"}
@@ -83,7 +83,11 @@ class RingAverager:
         return self.r_in + (np.arange(self.n_rings) + 0.5) * self.dr
 
     def fields(self) -> dict[str, np.ndarray]:
-        """Time-averaged fields and their standard errors (key + "_err")."""
+        """Time-averaged fields and their standard errors (key + "_err"). Errors come from
+        block averages: the samples are cut into up to 8 consecutive blocks, each block's
+        fields are formed from its averaged sums, and err = std(blocks) / sqrt(n_blocks).
+        Consecutive samples are correlated, so the spread of single samples would understate
+        the error; blocks longer than the correlation time do not."""
         if not self.samples:
             raise ValueError("no samples taken")
         stack = np.array(self.samples)
@@ -93,12 +97,14 @@ class RingAverager:
                 self.omega_in * self.r_in)
         mean = derived(stack.mean(axis=0), *args)
         out = {"r": r, "r_tilde": r_tilde}
-        per = [derived(s, *args) for s in stack]
+        blocks = np.array_split(stack, min(ERROR_BLOCKS, len(stack)))
+        per = [derived(b.mean(axis=0), *args) for b in blocks]
         for key, value in mean.items():
             out[key] = value
             if len(per) > 1:
                 vals = np.array([p[key] for p in per])
-                out[key + "_err"] = np.nanstd(vals, axis=0, ddof=1) / math.sqrt(len(per))
+                with np.errstate(invalid="ignore"):
+                    out[key + "_err"] = np.nanstd(vals, axis=0, ddof=1) / math.sqrt(len(per))
         return out
 
     def write(self, out_dir: str | Path) -> None:

@@ -93,5 +93,10 @@ def test_ring_averages_show_the_papers_physics(sheared_b):
           f"torque on the inner ring {t_mean:.4f} +- {t_err:.4f} N m; v_phi fit v0 = "
           f"{f['fit_v0']:.3f}, s = {f['fit_s']:.3f}")
     assert spread < 0.15 * abs(mean)  # flat across the rings
+    err = 2 * np.pi * h * f["r"][zone] ** 2 * f["sigma_rphi_err"][zone]
+    pulls = (carried[zone] - mean) / err
+    print(f"pulls (ring - mean) / block error: median |pull| {np.median(np.abs(pulls)):.2f}, "
+          f"max {np.abs(pulls).max():.2f}, fraction within 2 errors "
+          f"{np.mean(np.abs(pulls) < 2):.2f}")
     assert mean > 0 and t_mean < 0
     assert abs(mean + t_mean) < 0.15 * abs(t_mean) + 3 * t_err
