@@ -16,20 +16,20 @@ from pardem.state import INNER_WALL
 def inner_ring_torque(particles: dict, contacts: dict, ring_contacts: dict | None) -> float:
     """Torque (N m, about the axis, counter-clockwise positive) of the free particles on the
     inner ring, from a snapshot's arrays (rows sorted by id)."""
-    x, a, kind = particles["position"], particles["radius"], particles["kind"]
-    ids = contacts["ids"]
-    on_ring = kind[ids[:, 1]] == INNER_WALL  # lo is the free particle, hi the wall disk
-    p = ids[on_ring, 0]
-    n, d = contacts["normal"][on_ring], contacts["overlap"][on_ring]
-    f_on_p = contacts["normal_force"][on_ring, None] * n + contacts["tangential_force"][on_ring]
-    xc = x[p] - (a[p] - 0.5 * d)[:, None] * n
-    torque = -np.sum(xc[:, 0] * f_on_p[:, 1] - xc[:, 1] * f_on_p[:, 0])
+    on_ring = particles["kind"][contacts["ids"][:, 1]] == INNER_WALL  # hi: the wall disk
+    torque = _reaction_torque(particles, contacts["ids"][on_ring, 0],
+                              {k: v[on_ring] for k, v in contacts.items()})
     if ring_contacts is not None:
         sel = ring_contacts["ring"] == 1
-        q = ring_contacts["id"][sel]
-        n, d = ring_contacts["normal"][sel], ring_contacts["overlap"][sel]
-        f_on_p = ring_contacts["normal_force"][sel, None] * n + \
-            ring_contacts["tangential_force"][sel]
-        xc = x[q] - (a[q] - 0.5 * d)[:, None] * n
-        torque -= np.sum(xc[:, 0] * f_on_p[:, 1] - xc[:, 1] * f_on_p[:, 0])
-    return float(torque)
+        torque += _reaction_torque(particles, ring_contacts["id"][sel],
+                                   {k: v[sel] for k, v in ring_contacts.items()})
+    return torque
+
+
+def _reaction_torque(particles: dict, p: np.ndarray, t: dict) -> float:
+    """Torque about the axis of the reactions -f of contacts t on particles p, each acting at
+    the contact point x_p - (a_p - delta/2) n."""
+    n, d = t["normal"], t["overlap"]
+    f_on_p = t["normal_force"][:, None] * n + t["tangential_force"]
+    xc = particles["position"][p] - (particles["radius"][p] - 0.5 * d)[:, None] * n
+    return float(-np.sum(xc[:, 0] * f_on_p[:, 1] - xc[:, 1] * f_on_p[:, 0]))

@@ -42,6 +42,24 @@ def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, spri
                   force[order], spring[order])
 
 
+def oriented_rows(i, j, as_i, as_j, pairs: dict, ring_owner=None, ring: dict | None = None):
+    """Per-contact rows ``(owner, normal, overlap, force, spring)`` seen from each particle that
+    gets a share: a pair table's row counts for i where ``as_i`` and, negated, for j where
+    ``as_j``; ring-contact rows count for ``ring_owner``. Force = normal_force n + tangential."""
+    def force(t):
+        return t["normal_force"][:, None] * t["normal"] + t["tangential_force"]
+
+    f = force(pairs)
+    parts = [(i[as_i], pairs["normal"][as_i], pairs["overlap"][as_i], f[as_i],
+              pairs["spring"][as_i]),
+             (j[as_j], -pairs["normal"][as_j], pairs["overlap"][as_j], -f[as_j],
+              -pairs["spring"][as_j])]
+    if ring is not None:
+        parts.append((ring_owner, ring["normal"], ring["overlap"], force(ring), ring["spring"]))
+    owner, normal, overlap, force_, spring = (np.concatenate(c) for c in zip(*parts))
+    return owner.astype(np.int64), normal, overlap, force_, spring
+
+
 def sample_simulation(sim) -> Sample:
     """This rank's sample of a running Simulation (collective under MPI: ghost velocities are
     refreshed for the damping part of the contact forces)."""
@@ -52,17 +70,16 @@ def sample_simulation(sim) -> Sample:
     n_all = int(clock.n_local[0] + clock.n_ghost[0])
     t = diag.contact_table(ps, pairs, prm, sim.friction, e.normal_damping, n_all,
                            local_index=True)
-    f = t["normal_force"][:, None] * t["normal"] + t["tangential_force"]
     i, j = t["index"][:, 0], t["index"][:, 1]
-    as_i, as_j = i < n_move, j < n_move  # j < n_move: j is an owned free particle
-    parts = [(i[as_i], t["normal"][as_i], t["overlap"][as_i], f[as_i], t["spring"][as_i]),
-             (j[as_j], -t["normal"][as_j], t["overlap"][as_j], -f[as_j], -t["spring"][as_j])]
+    ring, ring_owner = None, None
     if sim.options.walls:
         r_out, rate = outer_radius(sim.time, prm)
-        w = diag.ring_contact_table(ps, pairs, prm, r_out, rate, sim.friction, e.normal_damping)
-        fw = w["normal_force"][:, None] * w["normal"] + w["tangential_force"]
-        parts.append((w["index"], w["normal"], w["overlap"], fw, w["spring"]))
-    owner, normal, overlap, force, spring = (np.concatenate(c) for c in zip(*parts))
+        ring = diag.ring_contact_table(ps, pairs, prm, r_out, rate, sim.friction,
+                                       e.normal_damping)
+        ring_owner = ring["index"]
+    # j < n_move: j is an owned free particle
+    owner, normal, overlap, force, spring = oriented_rows(i, j, i < n_move, j < n_move, t,
+                                                          ring_owner, ring)
     sl = slice(0, n_move)
     return from_contacts(ps.x[sl], ps.v[sl], ps.omega[sl], ps.radius[sl], ps.mass[sl],
-                         owner.astype(np.int64), normal, overlap, force, spring)
+                         owner, normal, overlap, force, spring)

@@ -18,7 +18,7 @@ from pardem.scene import SceneError, load_scene
 from pardem.simulation import sample_steps
 from pardem.timestep import resolve_dt
 
-from .collect import Sample, from_contacts
+from .collect import Sample, from_contacts, oriented_rows
 from .rings import RingAverager
 
 
@@ -32,18 +32,13 @@ def snapshot_sample(snap: dict) -> Sample:
     n = int(free.sum())
     c = snap["contacts"]
     lo, hi = c["ids"][:, 0], c["ids"][:, 1]
-    f = c["normal_force"][:, None] * c["normal"] + c["tangential_force"]
-    as_j = hi < n  # free ids are 0..n-1; wall disks come after
-    parts = [(lo, c["normal"], c["overlap"], f, c["spring"]),
-             (hi[as_j], -c["normal"][as_j], c["overlap"][as_j], -f[as_j], -c["spring"][as_j])]
-    if "ring_contacts" in snap:
-        w = snap["ring_contacts"]
-        fw = w["normal_force"][:, None] * w["normal"] + w["tangential_force"]
-        parts.append((w["id"], w["normal"], w["overlap"], fw, w["spring"]))
-    owner, normal, overlap, force, spring = (np.concatenate(p) for p in zip(*parts))
+    ring = snap.get("ring_contacts")
+    # lo is always free; free ids are 0..n-1, wall disks come after
+    owner, normal, overlap, force, spring = oriented_rows(
+        lo, hi, np.ones(lo.size, bool), hi < n, c, None if ring is None else ring["id"], ring)
     return from_contacts(snap["position"][:n], snap["velocity"][:n], snap["omega"][:n],
-                         snap["radius"][:n], snap["mass"][:n], owner.astype(np.int64), normal,
-                         overlap, force, spring)
+                         snap["radius"][:n], snap["mass"][:n], owner, normal, overlap, force,
+                         spring)
 
 
 def average_run(run_dir: str | Path, start: float | None = None, end: float | None = None,

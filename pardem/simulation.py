@@ -251,12 +251,10 @@ class Simulation:
             return None, np.zeros(0, np.int64)
         from averaging.rings import RingAverager  # averaging builds on pardem, not vice versa
 
-        if self.rings is not None:  # a later run() call continues the same time average
-            steps = sample_steps(cfg.start, cfg.end, cfg.sample_interval, self.dt)
-            return self.rings, steps[(steps <= end_step) & (steps > int(self.clock.step[0]))]
-
         steps = sample_steps(cfg.start, cfg.end, cfg.sample_interval, self.dt)
         steps = steps[(steps <= end_step) & (steps > int(self.clock.step[0]))]
+        if self.rings is not None:  # a later run() call continues the same time average
+            return self.rings, steps
         d_mean = 2.0 * float(np.mean(self._free_radii))
         avg = RingAverager(g.inner_radius, g.outer_radius, cfg.ring_width, cfg.weighting,
                            self.scene.contact.height, d_mean, self.scene.contact.k_n,
@@ -350,9 +348,10 @@ class Simulation:
         if self.decomp.parallel:
             first = int(self.clock.n_local[0])
             n_move, n_ghost = int(self.clock.n_move[0]), int(self.clock.n_ghost[0])
-            self.ps.v[first:first + n_ghost] = self.decomp.ghost_values(self.ps.v[:n_move])
-            self.ps.omega[first:first + n_ghost] = self.decomp.ghost_values(
-                self.ps.omega[:n_move])
+            both = self.decomp.ghost_values(
+                np.column_stack([self.ps.v[:n_move], self.ps.omega[:n_move]]))
+            self.ps.v[first:first + n_ghost] = both[:, :2]
+            self.ps.omega[first:first + n_ghost] = both[:, 2]
 
     def contacts(self) -> dict[str, np.ndarray] | None:
         """Touching pairs of the whole cell sorted by (gid_lo, gid_hi) (diagnostics.contact_table
@@ -371,6 +370,10 @@ class Simulation:
 
     def particle_arrays(self) -> dict[str, np.ndarray] | None:
         """Particle data of the whole cell sorted by id (the snapshot layout); rank 0 only."""
+        return self._particle_table(self.contacts())
+
+    def _particle_table(self, contacts: dict[str, np.ndarray] | None):
+        """particle_arrays() given this instant's gathered contacts (collective)."""
         ps, n_move = self.ps, int(self.clock.n_move[0])
         rows = slice(0, int(self.clock.n_local[0]) if self.decomp.rank == 0 else n_move)
         mine = {"id": ps.gid[rows], "kind": ps.kind[rows], "position": ps.x[rows],
@@ -381,7 +384,6 @@ class Simulation:
             mine["rank"] = np.full(mine["id"].size, self.decomp.rank, np.int32)
             mine["rank"][n_move:] = -1  # wall disks: prescribed, moved by every rank
         out = self.decomp.gather_rows(mine, key="id")
-        contacts = self.contacts()
         if out is None:
             return None
         _clear_wall_loads(out, "kind", "force", "torque")
@@ -393,14 +395,13 @@ class Simulation:
     # -- output ---------------------------------------------------------------------------------
     def write_snapshot(self) -> None:
         every = max(1, int(round(self.scene.output.snapshot_interval / self.dt)))
-        arrays = self.particle_arrays()
-        contacts = ring = None
-        if self.scene.output.contacts:
-            contacts = self.contacts()
-            ring = self.ring_contacts() if self.options.walls else None
+        contacts = self.contacts()
+        ring = self.ring_contacts() if self.options.walls and self.scene.output.contacts else None
+        arrays = self._particle_table(contacts)
         if self.decomp.rank == 0:
             write_snapshot(self.out_dir, int(self.clock.step[0]) // every, self.time,
-                           int(self.clock.step[0]), arrays, contacts, ring)
+                           int(self.clock.step[0]), arrays,
+                           contacts if self.scene.output.contacts else None, ring)
 
     def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
         """The whole state gathered on rank 0 (None on the others), sorted by gid."""
