@@ -3,7 +3,8 @@
 Stage: averaging. ``RingAverager.sample(sim)`` adds one sample (collective under MPI: one
 Allreduce). ``fields()`` forms the continuum quantities from the time-averaged sums (SPEC §4:
 average the sums first, then take ratios and A = <F>^-1), with standard errors from up to 8
-consecutive blocks of samples (see ``fields``). ``write(dir)`` writes rings.h5 and rings.csv atomically (rank 0);
+consecutive blocks of samples (see ``fields``). ``write(dir)`` writes rings.h5, rings.csv and
+rings.vtu (the annulus mesh for ParaView, see ``mesh.py``) atomically (rank 0);
 ``read_rings(dir)`` reads them back.
 
 Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
@@ -32,6 +33,7 @@ import h5py
 import numpy as np
 
 from .collect import Sample, sample_simulation
+from .mesh import write_rings_vtu
 from .sums import COL, COLUMNS, N_COLUMNS, UNITS, accumulate, reduce_sums
 from .weights import WEIGHTINGS
 
@@ -108,7 +110,7 @@ class RingAverager:
         return out
 
     def write(self, out_dir: str | Path) -> None:
-        """rings.h5 (fields, errors, raw sums per sample) and rings.csv; atomic."""
+        """rings.h5 (fields, errors, raw sums per sample), rings.csv and rings.vtu; atomic."""
         out_dir = Path(out_dir)
         f = self.fields()
         tmp = out_dir / "rings.h5.tmp"
@@ -130,6 +132,7 @@ class RingAverager:
         np.savetxt(tmp, np.column_stack([f[k] for k in keys]), delimiter=",", header=header,
                    comments="")
         os.replace(tmp, out_dir / "rings.csv")
+        write_rings_vtu(out_dir / "rings.vtu", f, self.r_in + np.arange(self.n_rings + 1) * self.dr)
 
 
 def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarray | None = None,

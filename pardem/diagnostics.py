@@ -104,13 +104,20 @@ def touching_pairs(ps, pairs, n_own):
     return out[:m]
 
 
+# A contact counts as sliding at |f_t| >= 0.999 mu |f_n|: the cap sets |f_t| = mu |f_n| with the
+# step's f_n, whose damping part used the predicted velocities; the reported f_n uses the
+# synchronous ones and differs by O(dt) in the damping term only.
+SLIDING = 0.999
+
+
 def contact_table(ps, pairs, prm, friction: bool, damping: bool, n_own: int,
                   local_index: bool = False) -> dict[str, np.ndarray]:
     """Touching particle pairs whose lower-gid partner is owned (index < n_own): ``ids`` [M,2]
     (gid of i < gid of j), ``normal`` [M,2] (unit, from j to i), ``overlap`` [M] (m),
     ``normal_force`` [M] (N, on i along n), ``tangential_force`` [M,2] (N, on i), ``spring``
-    [M,2] (m, xi). Forces on j are the negatives. ``local_index`` adds ``index`` [M,2], the
-    pair's storage indices on this rank."""
+    [M,2] (m, xi), ``mobilised`` [M] (|f_t|/(mu |f_n|)), ``sliding`` [M] (int32, 1 at the
+    cap). Forces on j are the negatives. ``local_index`` adds ``index`` [M,2], the pair's
+    storage indices on this rank."""
     k = touching_pairs(ps, pairs, n_own)
     i, j = pairs.i[k], pairs.j[k]
     d = ps.x[i] - ps.x[j]
@@ -123,8 +130,12 @@ def contact_table(ps, pairs, prm, friction: bool, damping: bool, n_own: int,
         dv = ps.v[i] - ps.v[j] + s[:, None] * np.column_stack([n[:, 1], -n[:, 0]])
         fn = fn - prm.gamma_n * np.einsum("ij,ij->i", dv, n)
     xi = pairs.xi[k] if friction else np.zeros((k.size, 2))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        mobilised = np.hypot(xi[:, 0], xi[:, 1]) * prm.k_t / (prm.mu * np.abs(fn))
+    mobilised = np.where(np.isfinite(mobilised), mobilised, 1.0) if friction else 0.0 * fn
     table = {"ids": np.column_stack([ps.gid[i], ps.gid[j]]), "normal": n, "overlap": overlap,
-             "normal_force": fn, "tangential_force": -prm.k_t * xi, "spring": xi.copy()}
+             "normal_force": fn, "tangential_force": -prm.k_t * xi, "spring": xi.copy(),
+             "mobilised": mobilised, "sliding": (mobilised >= SLIDING).astype(np.int32)}
     if local_index:
         table["index"] = np.column_stack([i, j])
     return table

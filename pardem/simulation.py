@@ -235,6 +235,8 @@ class Simulation:
                 last_report = t1
                 self._timed("progress", self._report, wall0, step0, end_step)
         if self.out_dir is not None:
+            if self.clock.step[0] % snap_every:  # the final state, off the snapshot grid
+                self._timed("snapshots", self.write_snapshot)
             self._timed("checkpoints", self.write_checkpoint)
             if rings is not None and rings.samples and root:
                 self._timed("averaging", rings.write, self.out_dir)
@@ -380,9 +382,8 @@ class Simulation:
                 "velocity": ps.v[rows], "omega": ps.omega[rows], "theta": ps.theta[rows],
                 "radius": ps.radius[rows], "mass": ps.mass[rows], "force": ps.f[rows],
                 "torque": ps.tau[rows]}
-        if self.decomp.parallel:
-            mine["rank"] = np.full(mine["id"].size, self.decomp.rank, np.int32)
-            mine["rank"][n_move:] = -1  # wall disks: prescribed, moved by every rank
+        mine["rank"] = np.full(mine["id"].size, self.decomp.rank, np.int32)
+        mine["rank"][n_move:] = -1  # wall disks: prescribed, moved by every rank
         out = self.decomp.gather_rows(mine, key="id")
         if out is None:
             return None
@@ -399,7 +400,8 @@ class Simulation:
         ring = self.ring_contacts() if self.options.walls and self.scene.output.contacts else None
         arrays = self._particle_table(contacts)
         if self.decomp.rank == 0:
-            write_snapshot(self.out_dir, int(self.clock.step[0]) // every, self.time,
+            # off-grid (final) states take the next index, which the next run overwrites
+            write_snapshot(self.out_dir, -(-int(self.clock.step[0]) // every), self.time,
                            int(self.clock.step[0]), arrays,
                            contacts if self.scene.output.contacts else None, ring)
 

@@ -116,6 +116,20 @@ def test_pardem_run_on_2_ranks_writes_the_serial_snapshots(tmp_path):
         for key in a["contacts"]:
             np.testing.assert_array_equal(a["contacts"][key], b["contacts"][key], key)
     assert set(np.unique(parallel[-1]["rank"])) == {-1, 0, 1}  # wall disks, rank 0, rank 1
+    # the files themselves: every dataset but the owning rank, and the XDMF indexes
+    with h5py.File(tmp_path / "serial" / "particles.h5") as s, \
+            h5py.File(tmp_path / "mpi" / "particles.h5") as p:
+        names, others = [], []
+        s.visit(names.append)
+        p.visit(others.append)
+        assert sorted(names) == sorted(others)
+        datasets = [n for n in names if isinstance(s[n], h5py.Dataset)]
+        assert len(datasets) > 50
+        for name in datasets:
+            if not name.endswith("/rank"):
+                np.testing.assert_array_equal(s[name][()], p[name][()], name)
+    for name in ("particles.xdmf", "contacts.xdmf"):
+        assert (tmp_path / "serial" / name).read_text() == (tmp_path / "mpi" / name).read_text()
     with h5py.File(tmp_path / "serial" / "checkpoint.h5") as s, \
             h5py.File(tmp_path / "mpi" / "checkpoint.h5") as p:
         for key in ("x", "v", "omega", "pair_lo", "pair_hi", "pair_xi"):

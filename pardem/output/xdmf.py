@@ -1,0 +1,125 @@
+"""XDMF indexes over ``particles.h5``: ``particles.xdmf`` (disks as points) and
+``contacts.xdmf`` (contacts as line cells between the two centres: the force-chain network).
+
+Stage: output. Both are temporal collections of one Uniform grid per snapshot whose datasets
+stay in ``particles.h5`` (no data is copied). Each snapshot appends its grid to the index: the
+earlier grids are kept as text (grids of the same or a later index, left by a run that a
+restart continues, are dropped), and the file is written under a temporary name and renamed, so
+the index only ever lists complete snapshots. Appending costs the same at snapshot 240 as at
+snapshot 1; rebuilding from the HDF5 file (``rebuild``) is the fallback when an index is
+missing.
+
+Reader notes that shaped the layout:
+- ParaView's default XDMF reader (Xdmf3) shows 0 cells for a Polyvertex topology without a
+  connectivity DataItem, so one is always written (``/topology/vertices_N``).
+- 2D data is stored padded to 3 components (z = 0), as ParaView expects XYZ points and vectors.
+- meshio's ``TimeSeriesReader`` takes points and cells from the first grid only and per-step
+  arrays from the attributes; so the positions are also an attribute (``position``), pointing at
+  the same dataset as the geometry.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+from pathlib import Path
+
+import h5py
+import numpy as np
+
+PARTICLES = "particles"
+CONTACTS = "contacts"
+SKIP = {PARTICLES: ("contacts", "ring_contacts"), CONTACTS: ("cells", "ids")}
+_HEAD = ('<?xml version="1.0"?>\n<Xdmf Version="3.0">\n<Domain>\n'
+         '<Grid Name="{0}" GridType="Collection" CollectionType="Temporal">\n')
+_TAIL = "</Grid>\n</Domain>\n</Xdmf>\n"
+Arrays = dict[str, tuple[tuple[int, ...], np.dtype]]  # dataset name -> (shape, dtype)
+
+
+def particle_grid(h5_name: str, index: int, time: float, arrays: Arrays) -> str:
+    """The grid of snapshot ``index`` whose particle datasets (shape, dtype) are ``arrays``."""
+    path = f"/snapshots/{index:06d}"
+    n = arrays["id"][0][0]
+    topo = _topology("Polyvertex", n, 1, h5_name, f"/topology/vertices_{n}", np.int32)
+    return _grid(PARTICLES, index, time, topo, h5_name, path, path, arrays, "Node")
+
+
+def contact_grid(h5_name: str, index: int, time: float, particle_arrays: Arrays,
+                 arrays: Arrays) -> str:
+    """Line cells of snapshot ``index`` over that snapshot's particle positions."""
+    path = f"/snapshots/{index:06d}"
+    shape, dtype = arrays["cells"]
+    topo = _topology("Polyline", shape[0], 2, h5_name, f"{path}/contacts/cells", dtype)
+    return _grid(CONTACTS, index, time, topo, h5_name, f"{path}/contacts", path,
+                 {"position": particle_arrays["position"], **arrays}, "Cell")
+
+
+def append(out_dir: Path, kind: str, index: int, grid: str) -> None:
+    """Add one snapshot's grid to ``kind``.xdmf, dropping grids of index >= ``index``."""
+    path = out_dir / f"{kind}.xdmf"
+    text = path.read_text() if path.exists() else _HEAD.format(kind) + _TAIL
+    last = text.rfind(f'<Grid Name="{kind}_')
+    if last >= 0 and int(text[last + len(kind) + 13:].split('"', 1)[0]) >= index:
+        text = _HEAD.format(kind) + "".join(g for i, g in _grids(text, kind) if i < index) + _TAIL
+    _write_atomic(path, text[:-len(_TAIL)] + grid + _TAIL)
+
+
+def rebuild(h5: h5py.File, out_dir: Path, h5_name: str) -> None:
+    """Both indexes from every complete snapshot of an open ``particles.h5`` (slow: reads
+    every group; for folders without an index)."""
+    particles, contacts = [], []
+    for name in sorted(k for k in h5.get("snapshots", {}) if not k.startswith("_")):
+        g = h5["snapshots"][name]
+        time, index = float(g.attrs["time"]), int(name)
+        parts = _shapes(g)
+        particles.append(particle_grid(h5_name, index, time, parts))
+        if "contacts" in g:
+            contacts.append(contact_grid(h5_name, index, time, parts, _shapes(g["contacts"])))
+    for kind, grids in ((PARTICLES, particles), (CONTACTS, contacts)):
+        if grids:
+            _write_atomic(out_dir / f"{kind}.xdmf", _HEAD.format(kind) + "".join(grids) + _TAIL)
+
+
+def _shapes(group: h5py.Group) -> Arrays:
+    return {k: (ds.shape, ds.dtype) for k, ds in group.items() if isinstance(ds, h5py.Dataset)}
+
+
+def _grids(text: str, kind: str) -> list[tuple[int, str]]:
+    return [(int(m.group(1)), m.group(0)) for m in
+            re.finditer(rf'<Grid Name="{kind}_(\d+)" GridType="Uniform">.*?</Grid>\n', text,
+                        flags=re.DOTALL)]
+
+
+def _grid(kind: str, index: int, time: float, topology: str, h5_name: str, path: str,
+          points: str, arrays: Arrays, center: str) -> str:
+    shape, dtype = arrays["position"]
+    parts = [f'<Grid Name="{kind}_{index:06d}" GridType="Uniform">\n<Time Value="{time!r}"/>\n',
+             topology, '<Geometry GeometryType="XYZ">\n',
+             _item(h5_name, f"{points}/position", shape, dtype), "</Geometry>\n"]
+    for key, (shape, dtype) in sorted(arrays.items()):
+        if key in SKIP[kind] or (kind == CONTACTS and key == "position"):
+            continue
+        kind_of = {1: "Scalar", 2: "Vector" if shape[-1] == 3 else "Matrix"}[len(shape)]
+        parts += [f'<Attribute Name="{key}" AttributeType="{kind_of}" Center="{center}">\n',
+                  _item(h5_name, f"{path}/{key}", shape, dtype), "</Attribute>\n"]
+    parts.append("</Grid>\n")
+    return "".join(parts)
+
+
+def _topology(kind: str, n: int, per: int, h5_name: str, path: str, dtype) -> str:
+    return (f'<Topology TopologyType="{kind}" NumberOfElements="{n}" NodesPerElement="{per}">\n'
+            + _item(h5_name, path, (n, per), np.dtype(dtype)) + "</Topology>\n")
+
+
+def _item(h5_name: str, path: str, shape: tuple[int, ...], dtype) -> str:
+    dtype = np.dtype(dtype)
+    number = {"f": "Float", "i": "Int", "u": "UInt"}[dtype.kind]
+    dims = " ".join(str(s) for s in shape)
+    return (f'<DataItem Dimensions="{dims}" NumberType="{number}" Precision="{dtype.itemsize}" '
+            f'Format="HDF">{h5_name}:{path}</DataItem>\n')
+
+
+def _write_atomic(path: Path, text: str) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_text(text)
+    os.replace(tmp, path)

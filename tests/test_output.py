@@ -1,0 +1,240 @@
+"""Files for ParaView/pyvista/meshio: every written file is read back with an independent reader
+and compared with the simulation's in-memory state."""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+import xml.etree.ElementTree as ET
+from pathlib import Path
+
+import h5py
+import meshio
+import numpy as np
+import pytest
+from helpers import couette_scene
+
+import pardem
+from averaging.rings import read_rings
+from pardem.scene import write_scene
+from pardem.simulation import Simulation
+
+ROOT = Path(__file__).parent.parent
+SMALL_CELL = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
+              "compression_time": 0.1, "omega_inner": 3.0}
+
+
+def small_cell(**output):
+    return couette_scene(counts=(260, 40), geometry=SMALL_CELL,
+                         output={"snapshot_interval": 0.05, **output},
+                         averaging={"start": 0.1, "end": 0.2, "sample_interval": 0.05},
+                         time={"end": 0.22})
+
+
+@pytest.fixture(scope="module")
+def run(tmp_path_factory):
+    """A small cell run to 0.2 s; returns the folder and the final in-memory state."""
+    out = tmp_path_factory.mktemp("run")
+    sim = Simulation(small_cell(), out_dir=out)
+    sim.run(progress=False)
+    return out, sim.particle_arrays(), sim.contacts(), sim.rings.fields()
+
+
+def xdmf_grids(path: Path) -> list[ET.Element]:
+    root = ET.parse(path).getroot()
+    return root.find("Domain").find("Grid").findall("Grid")
+
+
+def test_hdf5_snapshot_holds_the_in_memory_state(run):
+    out, state, contacts, _ = run
+    with h5py.File(out / "particles.h5") as h5:
+        names = sorted(h5["snapshots"])
+        last = h5["snapshots"][names[-1]]
+        np.testing.assert_array_equal(last["id"][()], state["id"])
+        np.testing.assert_array_equal(last["position"][:, :2], state["position"])
+        np.testing.assert_array_equal(last["position"][:, 2], 0.0)
+        np.testing.assert_array_equal(last["force"][:, :2], state["force"])
+        np.testing.assert_array_equal(last["kind"][()], state["kind"])
+        np.testing.assert_array_equal(last["rank"][()], np.where(state["kind"] == 0, 0, -1))
+        c = last["contacts"]
+        np.testing.assert_array_equal(c["ids"][()], contacts["ids"])
+        # the line cells join exactly the two particles of each contact
+        np.testing.assert_array_equal(last["id"][()][c["cells"][()]], contacts["ids"])
+        np.testing.assert_array_equal(c["normal_force"][()], contacts["normal_force"])
+        assert len(names) == 6  # t = 0, 0.05, ..., 0.2 and the final state at 0.22
+
+
+def test_particles_xdmf_reads_back_in_pyvista_and_meshio(run):
+    pv = pytest.importorskip("pyvista")
+    out, state, _, _ = run
+    grids = xdmf_grids(out / "particles.xdmf")
+    assert len(grids) == 6
+    # ParaView's Xdmf3 reader shows no cells without an explicit connectivity item
+    topo = grids[-1].find("Topology")
+    assert topo.get("TopologyType") == "Polyvertex" and topo.find("DataItem") is not None
+    reader = pv.get_reader(str(out / "particles.xdmf"))
+    assert reader.number_time_points == 6
+    reader.set_active_time_value(reader.time_values[-1])
+    mesh = reader.read()
+    assert mesh.n_points == mesh.n_cells == state["id"].size
+    np.testing.assert_array_equal(mesh.points[:, :2], state["position"])
+    np.testing.assert_array_equal(mesh.point_data["id"], state["id"])
+    np.testing.assert_array_equal(mesh.point_data["velocity"][:, :2], state["velocity"])
+    np.testing.assert_array_equal(mesh.point_data["coordination"], state["coordination"])
+    with meshio.xdmf.TimeSeriesReader(out / "particles.xdmf") as r:
+        points, cells = r.read_points_cells()
+        assert cells[0].type == "vertex" and len(cells[0].data) == state["id"].size
+        t, point_data, _ = r.read_data(r.num_steps - 1)
+    assert t == pytest.approx(0.22, abs=1e-4)
+    np.testing.assert_array_equal(point_data["position"][:, :2], state["position"])
+    np.testing.assert_array_equal(point_data["torque"], state["torque"])
+
+
+def test_contacts_xdmf_lines_join_the_touching_centres(run):
+    pv = pytest.importorskip("pyvista")
+    out, state, contacts, _ = run
+    reader = pv.get_reader(str(out / "contacts.xdmf"))
+    reader.set_active_time_value(reader.time_values[-1])
+    lines = reader.read()
+    m = contacts["ids"].shape[0]
+    assert lines.n_cells == m > 100
+    ends = lines.cell_connectivity.reshape(m, 2)
+    row = np.searchsorted(state["id"], contacts["ids"])
+    np.testing.assert_array_equal(lines.points[ends][:, :, :2], state["position"][row])
+    np.testing.assert_array_equal(lines.cell_data["normal_force"], contacts["normal_force"])
+    np.testing.assert_array_equal(lines.cell_data["tangential_force"][:, :2],
+                                  contacts["tangential_force"])
+    sliding = lines.cell_data["sliding"]
+    assert set(np.unique(sliding)) <= {0, 1}
+    ratio = np.hypot(*contacts["tangential_force"].T) / (0.44 * np.abs(contacts["normal_force"]))
+    np.testing.assert_array_equal(sliding == 1, ratio >= 0.999)
+
+
+def test_rings_vtu_carries_the_ring_fields(run):
+    pv = pytest.importorskip("pyvista")
+    out, _, _, fields = run
+    rings = read_rings(out)
+    mesh = pv.read(out / "rings.vtu")
+    n = rings["nu"].size
+    assert mesh.n_cells == n * 120
+    ring = mesh.cell_data["ring"]
+    for key in ("nu", "v_phi", "tr_sigma", "mu_c", "C", "nu_err"):
+        np.testing.assert_array_equal(mesh.cell_data[key], rings[key][ring], key)
+        np.testing.assert_allclose(rings[key], fields[key], rtol=0, atol=0, equal_nan=True)
+    sigma = mesh.cell_data["sigma"].reshape(-1, 3, 3)
+    np.testing.assert_array_equal(sigma[:, 0, 1], rings["sigma_rphi"][ring])
+    np.testing.assert_array_equal(sigma[:, 2], 0.0)
+    # each cell lies in its ring: the cell centres' radii are within the ring's edges
+    centre = np.hypot(*mesh.cell_centers().points[:, :2].T)
+    dr = rings["r"][1] - rings["r"][0]
+    assert np.all(np.abs(centre - rings["r"][ring]) < 0.5 * dr)
+    # the Cartesian velocity is v_phi e_phi + v_r e_r at the cell centre
+    phi = np.arctan2(*mesh.cell_centers().points[:, 1::-1].T)
+    v = mesh.cell_data["velocity"]
+    np.testing.assert_allclose(-v[:, 0] * np.sin(phi) + v[:, 1] * np.cos(phi),
+                               rings["v_phi"][ring], atol=1e-12, equal_nan=True)
+    assert meshio.read(out / "rings.vtu").cells[0].type == "quad"
+
+
+def test_killed_run_leaves_every_finished_snapshot_readable(tmp_path):
+    """kill -9 while the run writes snapshots; files stay readable and list only whole
+    snapshots, and the run continues from the checkpoint."""
+    write_scene(couette_scene(counts=(260, 40), geometry=SMALL_CELL,
+                              output={"snapshot_interval": 0.01, "checkpoint_interval": 0.05},
+                              time={"end": 5.0}), tmp_path / "s.toml")
+    out = tmp_path / "run"
+    proc = subprocess.Popen([sys.executable, "-m", "pardem.cli", "run", str(tmp_path / "s.toml"),
+                             "--out", str(out), "--quiet"], stderr=subprocess.DEVNULL)
+    deadline = time.time() + 120
+    while time.time() < deadline:
+        if (out / "particles.xdmf").exists() and len(xdmf_grids(out / "particles.xdmf")) >= 12:
+            break
+        time.sleep(0.05)
+    os.kill(proc.pid, signal.SIGKILL)
+    proc.wait(timeout=30)
+    grids = xdmf_grids(out / "particles.xdmf")
+    snaps = list(pardem.read_snapshots(out))
+    assert len(snaps) >= len(grids) >= 12
+    with h5py.File(out / "particles.h5") as h5:
+        for grid in grids:  # every dataset the index names exists with the stated shape
+            for item in grid.iter("DataItem"):
+                ds = h5[item.text.split(":")[1]]
+                assert ds.shape == tuple(int(d) for d in item.get("Dimensions").split())
+    pv = pytest.importorskip("pyvista")
+    reader = pv.get_reader(str(out / "particles.xdmf"))
+    reader.set_active_time_value(reader.time_values[-1])
+    assert reader.read().n_points == snaps[0]["id"].size
+    # the checkpoint is whole too: the run continues
+    with h5py.File(out / "checkpoint.h5") as h5:
+        t_ckpt = float(h5.attrs["time"])
+    done = subprocess.run([sys.executable, "-m", "pardem.cli", "run", str(tmp_path / "s.toml"),
+                           "--out", str(out), "--restart", str(out / "checkpoint.h5"),
+                           "--end", str(t_ckpt + 0.02), "--quiet"], capture_output=True,
+                          text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    # snapshots past the checkpoint were rewritten by the continued run; the index and the
+    # file agree again, snapshot for snapshot
+    grids = xdmf_grids(out / "particles.xdmf")
+    times = [s["time"] for s in pardem.read_snapshots(out)]
+    assert [float(g.find("Time").get("Value")) for g in grids] == times
+    assert times[-1] == pytest.approx(t_ckpt + 0.02, abs=1e-4)
+
+
+def test_render_script_writes_non_trivial_pictures(run, tmp_path):
+    pytest.importorskip("pyvista")
+    out = run[0]
+    done = subprocess.run([sys.executable, str(ROOT / "run_scripts" / "render.py"), str(out),
+                           "--size", "400", "--fields", "nu", "tr_sigma", "--out", str(tmp_path)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    names = sorted(p.name for p in tmp_path.glob("*.png"))
+    assert names == ["rings_nu.png", "rings_tr_sigma.png", "snapshot_000005_forces.png",
+                     "snapshot_000005_speed.png"]
+    from PIL import Image
+
+    for name in names:
+        img = np.asarray(Image.open(tmp_path / name).convert("RGB"))
+        assert img.shape == (400, 500, 3), name
+        colours = np.unique(img.reshape(-1, 3), axis=0)
+        assert len(colours) > 20, f"{name}: only {len(colours)} colours"
+        white = np.all(img == 255, axis=-1).mean()
+        assert 0.2 < white < 0.95, f"{name}: {white:.0%} white"
+
+
+def test_index_appended_per_snapshot_equals_one_rebuilt_from_the_file(run, tmp_path):
+    from pardem.output import xdmf
+
+    out = run[0]
+    with h5py.File(out / "particles.h5") as h5:
+        xdmf.rebuild(h5, tmp_path, "particles.h5")
+    for name in ("particles.xdmf", "contacts.xdmf"):
+        assert (tmp_path / name).read_text() == (out / name).read_text()
+
+
+def test_paraview_itself_opens_the_run(run):
+    """With Debian's ParaView installed (pvbatch; skipped otherwise): its default readers see
+    every snapshot, one cell per particle (the Xdmf3 Polyvertex trap), one line per contact."""
+    import json
+    import shutil
+
+    pvbatch = shutil.which("pvbatch")
+    if pvbatch is None:
+        pytest.skip("ParaView (pvbatch) is not installed")
+    out, state, contacts, fields = run
+    cmd = [pvbatch, str(ROOT / "tests" / "paraview" / "check_run.py"), str(out)]
+    if not os.environ.get("DISPLAY") and shutil.which("xvfb-run"):
+        cmd = ["xvfb-run", "-a"] + cmd  # Debian's pvbatch has no off-screen backend
+    done = subprocess.run(cmd, capture_output=True, text=True, timeout=300,
+                          env={k: v for k, v in os.environ.items() if k != "PYTHONPATH"})
+    assert done.returncode == 0, done.stderr
+    seen = {d["file"]: d for d in map(json.loads, done.stdout.splitlines()[-3:])}
+    n = state["id"].size
+    p = seen["particles.xdmf"]
+    assert (p["times"], p["points"], p["cells"]) == (6, n, n)
+    assert {"id", "radius", "velocity", "force", "rank", "coordination"} <= set(p["point_arrays"])
+    c = seen["contacts.xdmf"]
+    assert (c["points"], c["cells"]) == (n, contacts["ids"].shape[0])
+    assert {"normal_force", "tangential_force", "sliding"} <= set(c["cell_arrays"])
+    r = seen["rings.vtu"]
+    assert r["cells"] == fields["nu"].size * 120 and {"nu", "mu_c", "sigma"} <= set(r["cell_arrays"])
