@@ -25,13 +25,13 @@ import numpy as np
 from . import diagnostics as diag
 from .contact import LawOptions
 from .decomposition import Decomposition, merge_history
-from .neighbors import build_pairs, carry_history, ring_candidates
+from .neighbors import build_pairs, carry_history, live_springs, ring_candidates
 from .output.checkpoint import ARRAYS, load_checkpoint, save_checkpoint
 from .output.snapshots import write_snapshot
 from .placement import initial_configuration
 from .scene import Scene, SceneError, write_scene
 from .state import (FREE, Pairs, Params, join_rows, new_clock, new_pairs, new_particles,
-                    particles_from_rows, take_rows)
+                    particle_fields, particles_from_rows, take_rows)
 from .stepper import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
 from .walls import outer_radius
@@ -133,22 +133,7 @@ class Simulation:
         if history is None and self.friction:
             history = self._spring_history()
         if self.decomp.parallel:
-            n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-            own = take_rows(self.ps, np.arange(n_move), self.friction)
-            walls = take_rows(self.ps, np.arange(n_move, n_local), self.friction)
-            if rebalance:
-                self.decomp.rebalance(own["x"])
-            own, ghosts, history = self.decomp.distribute(own, history)
-            rows = join_rows([own, walls, ghosts])
-            need = rows["gid"].size
-            if need <= self.ps.gid.size:  # every row is a copy: overwrite in place
-                for k, v in rows.items():
-                    getattr(self.ps, k)[:need] = v
-            else:
-                self.ps = particles_from_rows(rows, int(1.25 * need), self.friction)
-            clock.n_move[0] = own["gid"].size
-            clock.n_local[0] = own["gid"].size + walls["gid"].size
-            clock.n_ghost[0] = ghosts["gid"].size
+            history = self._exchange(history, rebalance)
         ps, pairs = self.ps, self.pairs
         n = int(clock.n_local[0] + clock.n_ghost[0])
         n_move = int(clock.n_move[0])
@@ -160,8 +145,7 @@ class Simulation:
             pairs = self._grow_pairs(count + count // 2, pairs.wall.size)
             build_pairs(ps.x, ps.radius, ps.gid, n_move, n, self.prm.skin, pairs.i, pairs.j)
         if self.friction:
-            carry_history(*history, ps.gid[pairs.i[:count]], ps.gid[pairs.j[:count]],
-                          pairs.xi[:count])
+            carry_history(*history, ps.gid, pairs.i, pairs.j, pairs.xi[:count])
         if self.options.walls:
             nw = ring_candidates(ps.x, ps.radius, n_move, self.prm.r_in, r_out_now,
                                  self.prm.skin, pairs.wall)
@@ -173,12 +157,39 @@ class Simulation:
         pairs.count[0] = count
         self.n_rebuilds += 1
 
+    def _exchange(self, history, rebalance: bool):
+        """Under MPI: migrate owned particles that left the sector, exchange ghosts and lay the
+        rows out again as [owned | wall disks | ghosts]. At most builds nothing migrates; then
+        the owned rows and wall disks stay where they are and only the ghost rows are written.
+        Returns the spring history with the migrants' springs merged in."""
+        clock, ps = self.clock, self.ps
+        n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
+        own = {k: getattr(ps, k)[:n_move] for k in particle_fields(self.friction)}  # views
+        if rebalance:
+            self.decomp.rebalance(own["x"])
+        moved, ghosts, history = self.decomp.distribute(own, history)
+        n_ghost = ghosts["gid"].size
+        if moved is own and n_local + n_ghost <= ps.gid.size:
+            for k, v in ghosts.items():
+                getattr(ps, k)[n_local:n_local + n_ghost] = v
+        else:
+            walls = take_rows(ps, np.arange(n_move, n_local), self.friction)
+            rows = join_rows([moved, walls, ghosts])  # copies: safe to overwrite ps below
+            need = rows["gid"].size
+            if need <= ps.gid.size:
+                for k, v in rows.items():
+                    getattr(ps, k)[:need] = v
+            else:
+                self.ps = particles_from_rows(rows, int(1.25 * need), self.friction)
+            clock.n_move[0] = moved["gid"].size
+            clock.n_local[0] = moved["gid"].size + n_local - n_move
+        clock.n_ghost[0] = n_ghost
+        return history
+
     def _spring_history(self):
         """Springs of the current list that are non-zero, keyed by (gid_lo, gid_hi), sorted."""
-        ps, pairs = self.ps, self.pairs
-        c = int(pairs.count[0])
-        live = np.flatnonzero((pairs.xi[:c, 0] != 0.0) | (pairs.xi[:c, 1] != 0.0))
-        return ps.gid[pairs.i[live]], ps.gid[pairs.j[live]], pairs.xi[live].copy()
+        return live_springs(self.ps.gid, self.pairs.i, self.pairs.j, self.pairs.xi,
+                            int(self.pairs.count[0]))
 
     def _grow_pairs(self, cap: int, wall_cap: int, keep: int = 0) -> Pairs:
         new = new_pairs(cap, wall_cap, self.friction)

@@ -39,8 +39,9 @@ def test_carry_history_matches_by_gid_keys():
     old_lo = np.array([0, 0, 2, 5])
     old_hi = np.array([1, 3, 4, 6])
     old_xi = np.arange(8.0).reshape(4, 2)
-    new_lo = np.array([0, 1, 2, 5, 5])
-    new_hi = np.array([3, 2, 4, 6, 7])
+    gid = np.array([10, 0, 1, 2, 3, 4, 5, 6, 7])  # local index -> gid (storage order differs)
+    new_lo = np.array([1, 2, 3, 6, 6])  # local indices of the pairs (0, 3), (1, 2), ...
+    new_hi = np.array([4, 3, 5, 7, 8])
     new_xi = np.full((5, 2), -1.0)
-    carry_history(old_lo, old_hi, old_xi, new_lo, new_hi, new_xi)
+    carry_history(old_lo, old_hi, old_xi, gid, new_lo, new_hi, new_xi)
     np.testing.assert_array_equal(new_xi, [[2, 3], [0, 0], [4, 5], [6, 7], [0, 0]])
