@@ -13,13 +13,17 @@ from typing import NamedTuple
 import numpy as np
 
 from pardem import diagnostics as diag
+from pardem.state import INNER_WALL
 from pardem.walls import outer_radius
+
+from .boundary import torque_on
 
 
 class Sample(NamedTuple):
     """Particles x [n,2] (m), v [n,2] (m/s), omega [n] (rad/s), radius [n] (m), mass [n] (kg);
     contacts of particle p in rows start[p]:start[p+1] of normal [m,2], overlap [m] (m),
-    force [m,2] (N, on p), spring [m,2] (m)."""
+    force [m,2] (N, on p), spring [m,2] (m); inner_torque (N m): the torque the inner ring
+    exerts on these particles (this rank's share)."""
 
     x: np.ndarray
     v: np.ndarray
@@ -31,15 +35,17 @@ class Sample(NamedTuple):
     overlap: np.ndarray
     force: np.ndarray
     spring: np.ndarray
+    inner_torque: float
 
 
-def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, spring) -> Sample:
+def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, spring,
+                  inner_torque: float) -> Sample:
     """Build a Sample from per-contact rows already oriented towards ``owner`` (particle index)."""
     order = np.argsort(owner, kind="stable")
     start = np.zeros(radius.size + 1, np.int64)
     np.cumsum(np.bincount(owner, minlength=radius.size), out=start[1:])
     return Sample(x, v, omega, radius, mass, start, normal[order], overlap[order],
-                  force[order], spring[order])
+                  force[order], spring[order], inner_torque)
 
 
 def oriented_rows(i, j, as_i, as_j, pairs: dict, ring_owner=None, ring: dict | None = None):
@@ -82,4 +88,20 @@ def sample_simulation(sim) -> Sample:
                                                           ring_owner, ring)
     sl = slice(0, n_move)
     return from_contacts(ps.x[sl], ps.v[sl], ps.omega[sl], ps.radius[sl], ps.mass[sl],
-                         owner, normal, overlap, force, spring)
+                         owner, normal, overlap, force, spring,
+                         _inner_torque(ps, t, i, j, n_move, ring))
+
+
+def _inner_torque(ps, t: dict, i, j, n_move: int, ring: dict | None) -> float:
+    """Torque of the inner ring on this rank's particles: their contacts with inner wall disks
+    (a wall disk is always the higher-gid partner j) and with the flat inner surface."""
+    on = (i < n_move) & (ps.kind[j] == INNER_WALL)
+    f = t["normal_force"][on, None] * t["normal"][on] + t["tangential_force"][on]
+    p = i[on]
+    torque = torque_on(ps.x[p], ps.radius[p], t["normal"][on], t["overlap"][on], f)
+    if ring is not None:
+        sel = ring["ring"] == 1
+        p = ring["index"][sel]
+        f = ring["normal_force"][sel, None] * ring["normal"][sel] + ring["tangential_force"][sel]
+        torque += torque_on(ps.x[p], ps.radius[p], ring["normal"][sel], ring["overlap"][sel], f)
+    return torque

@@ -18,6 +18,7 @@ from pardem.scene import SceneError, load_scene
 from pardem.simulation import sample_steps
 from pardem.timestep import resolve_dt
 
+from .boundary import inner_ring_torque
 from .collect import Sample, from_contacts, oriented_rows
 from .rings import RingAverager
 
@@ -38,7 +39,7 @@ def snapshot_sample(snap: dict) -> Sample:
         lo, hi, np.ones(lo.size, bool), hi < n, c, None if ring is None else ring["id"], ring)
     return from_contacts(snap["position"][:n], snap["velocity"][:n], snap["omega"][:n],
                          snap["radius"][:n], snap["mass"][:n], owner, normal, overlap, force,
-                         spring)
+                         spring, inner_ring_torque(snap, c, ring))
 
 
 def average_run(run_dir: str | Path, start: float | None = None, end: float | None = None,
@@ -66,9 +67,10 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
             continue
         free = snap["kind"] == 0
         if avg is None:
+            d_ref = (cfg.reference_diameter if cfg and cfg.reference_diameter
+                     else 2.0 * float(snap["radius"][free].mean()))
             avg = RingAverager(g.inner_radius, g.outer_radius, ring_width, weighting,
-                               scene.contact.height, 2.0 * float(snap["radius"][free].mean()),
-                               scene.contact.k_n, g.omega_inner)
+                               scene.contact.height, d_ref, scene.contact.k_n, g.omega_inner)
         avg.add(snapshot_sample(snap), snap["time"])
     if avg is None:
         raise SceneError(f"{run_dir}: no snapshot between t = {start} s and {end} s")

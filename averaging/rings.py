@@ -8,7 +8,7 @@ rings.vtu (the annulus mesh for ParaView, see ``mesh.py``) atomically (rank 0);
 ``read_rings(dir)`` reads them back.
 
 Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
-    r (m) ring centre; r_tilde = (r - R_i)/d_mean
+    r (m) ring centre; r_tilde = (r - R_i)/d_ref (d_ref: [averaging] reference_diameter)
     nu = vol/V; v_r, v_phi (m/s) = mom/vol; omega (rad/s) = spin/vol; C = coord/vol
     F_ab = fabric/V; sigma_ab (N/m^2) = stress/V
     eps_ab = (pi h/V) deform . A with A = F^-1 (NaN where F is singular)
@@ -21,6 +21,10 @@ Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
     (pi/k'_n) dev sigma / dev eps; mu_c = M_zr / kappa_zr (N/m^2); k'_n = k_n/h
     v_phi_norm = v_phi/(Omega R_i); fit_v0, fit_s: v_phi_norm = v0 exp(-r_tilde/s) fitted
     over r_tilde in [0.25, 8.1] (scalars, in rings.h5 only)
+    shear_torque (N m) = 2 pi h r^2 sigma_rphi, the torque passed outwards through the ring;
+    inner_torque (N m, scalar): the torque of the inner ring on the particles, from its
+    contacts, averaged over the samples (steady state: shear_torque = inner_torque in every
+    ring; per-sample values in rings.h5/inner_torque)
 """
 
 from __future__ import annotations
@@ -46,7 +50,7 @@ FIELD_UNITS.update({"tr_F": "1", "dev_F": "1", "angle_F": "deg", "tr_sigma": "N/
                     "dev_sigma": "N/m^2", "angle_sigma": "deg", "tr_eps": "1", "dev_eps": "1",
                     "angle_eps": "deg", "D_rphi": "1/s", "W_rphi": "1/s", "excess_spin": "rad/s",
                     "stiffness": "1", "shear_resistance": "1", "mu_c": "N/m^2", "v_phi_norm": "1",
-                    "fit_v0": "1", "fit_s": "1"})
+                    "fit_v0": "1", "fit_s": "1", "shear_torque": "N m", "inner_torque": "N m"})
 for comp in ("rr", "rphi", "phir", "phiphi"):
     FIELD_UNITS[f"F_{comp}"] = "1"
     FIELD_UNITS[f"sigma_{comp}"] = "N/m^2"
@@ -57,10 +61,10 @@ class RingAverager:
     """Rings of width ``dr`` (m) from ``r_in`` to ``r_out`` (m) about the axis."""
 
     def __init__(self, r_in: float, r_out: float, dr: float, weighting: str, height: float,
-                 d_mean: float, k_n: float, omega_in: float, comm=None):
+                 d_ref: float, k_n: float, omega_in: float, comm=None):
         if weighting not in WEIGHTINGS:
             raise ValueError(f"weighting {weighting!r}: allowed are {sorted(WEIGHTINGS)}")
-        self.r_in, self.dr, self.height, self.d_mean = r_in, dr, height, d_mean
+        self.r_in, self.dr, self.height, self.d_ref = r_in, dr, height, d_ref
         self.n_rings = max(int(math.ceil((r_out - r_in) / dr - 1e-9)), 1)
         self.exact = WEIGHTINGS[weighting] == WEIGHTINGS["exact"]
         self.weighting = weighting
@@ -68,6 +72,7 @@ class RingAverager:
         self.k_n, self.omega_in = k_n, omega_in  # for 2 pi E / k'_n etc. and v_phi / (Omega R_i)
         self.samples: list[np.ndarray] = []
         self.times: list[float] = []
+        self.torques: list[float] = []  # inner ring on the particles, N m, per sample
 
     def sample(self, sim) -> None:
         """Add the ring sums of the simulation's current state (collective under MPI)."""
@@ -76,8 +81,10 @@ class RingAverager:
     def add(self, s: Sample, time: float) -> None:
         """Add one sample (this rank's particles; the totals are reduced over ranks)."""
         local = np.zeros((self.n_rings, N_COLUMNS))
-        accumulate(*s, self.height, self.r_in, self.dr, self.exact, local)
-        self.samples.append(reduce_sums(local, self.comm))
+        accumulate(*s[:-1], self.height, self.r_in, self.dr, self.exact, local)
+        sums, scalars = reduce_sums(local, np.array([s.inner_torque]), self.comm)
+        self.samples.append(sums)
+        self.torques.append(float(scalars[0]))
         self.times.append(time)
 
     @property
@@ -94,13 +101,17 @@ class RingAverager:
             raise ValueError("no samples taken")
         stack = np.array(self.samples)
         r = self.ring_centres
-        r_tilde = (r - self.r_in) / self.d_mean
+        r_tilde = (r - self.r_in) / self.d_ref
         args = (r, self.dr, self.height, r_tilde, self.k_n / self.height,
                 self.omega_in * self.r_in)
+        torques = np.array(self.torques)
         mean = derived(stack.mean(axis=0), *args)
+        mean["inner_torque"] = np.array(torques.mean())
         out = {"r": r, "r_tilde": r_tilde}
-        blocks = np.array_split(stack, min(ERROR_BLOCKS, len(stack)))
-        per = [derived(b.mean(axis=0), *args) for b in blocks]
+        blocks = np.array_split(np.arange(len(stack)), min(ERROR_BLOCKS, len(stack)))
+        per = [derived(stack[b].mean(axis=0), *args) for b in blocks]
+        for p, b in zip(per, blocks):
+            p["inner_torque"] = np.array(torques[b].mean())
         for key, value in mean.items():
             out[key] = value
             if len(per) > 1:
@@ -125,6 +136,8 @@ class RingAverager:
             h5["sums"].attrs["columns"] = ",".join(COLUMNS)
             h5["sums"].attrs["units"] = ",".join(UNITS[c] for c in COLUMNS)
             h5.create_dataset("times", data=np.array(self.times))
+            h5.create_dataset("inner_torque", data=np.array(self.torques))
+            h5["inner_torque"].attrs["unit"] = "N m"
         os.replace(tmp, out_dir / "rings.h5")
         keys = [k for k in f if np.ndim(f[k]) == 1]  # per-ring columns (fit scalars: h5 only)
         header = ",".join(f"{k} [{FIELD_UNITS.get(k.removesuffix('_err'), '')}]" for k in keys)
@@ -170,6 +183,7 @@ def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarr
         out["shear_resistance"] = math.pi / k_n_2d * out["dev_sigma"] / out["dev_eps"]
         out["mu_c"] = out["M_zr"] / out["kappa_zr"]
         out["v_phi_norm"] = out["v_phi"] / wall_speed
+        out["shear_torque"] = 2.0 * math.pi * h * r * r * out["sigma_rphi"]
     if r_tilde is not None:
         v0, decay = exponential_fit(r_tilde, out["v_phi_norm"])
         out["fit_v0"], out["fit_s"] = np.array(v0), np.array(decay)
@@ -223,5 +237,6 @@ def read_rings(run_dir: str | Path) -> dict[str, np.ndarray]:
         out = {k: v[()] for k, v in h5["fields"].items()}
         out["times"] = h5["times"][()]
         out["sums"] = h5["sums"][()]
+        out["inner_torque_samples"] = h5["inner_torque"][()]
         out["columns"] = tuple(h5["sums"].attrs["columns"].split(","))
     return out

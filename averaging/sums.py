@@ -113,12 +113,14 @@ def accumulate(x, v, omega, radius, mass, start, cn, cdelta, cf, cxi, height, r0
                 out[row, col] += w * q[col]
 
 
-def reduce_sums(local: np.ndarray, comm=None) -> np.ndarray:
-    """Totals over ranks (the one place the averaging talks MPI): one Allreduce per sample."""
+def reduce_sums(local: np.ndarray, scalars: np.ndarray, comm=None):
+    """Totals over ranks of the ring sums and of a few per-sample scalars (the one place the
+    averaging talks MPI): one Allreduce per sample. Returns ``(sums, scalars)``."""
     if comm is None or comm.Get_size() == 1:
-        return local
+        return local, scalars
     from mpi4py import MPI
 
-    total = np.empty_like(local)
-    comm.Allreduce(local, total, op=MPI.SUM)
-    return total
+    buf = np.concatenate([local.ravel(), scalars])
+    total = np.empty_like(buf)
+    comm.Allreduce(buf, total, op=MPI.SUM)
+    return total[:local.size].reshape(local.shape), total[local.size:]

@@ -161,13 +161,16 @@ class OutputCfg:
 class AveragingCfg:
     """``[averaging]`` (optional; in-situ ring averaging): start (s, 180.0), end (s, 239.0),
     sample_interval (s, 0.1), ring_width (m, 0.9275e-3 = d_small/8), weighting ("slice" |
-    "exact", default "slice")."""
+    "exact", default "slice"), reference_diameter (m, the d~ of r~ = (r - R_i)/d~ and of the
+    v_phi decay length; "auto" = None: the mean free-particle diameter; the paper's scenes
+    set 8.0e-3)."""
 
     start: float = 180.0
     end: float = 239.0
     sample_interval: float = 0.1
     ring_width: float = 0.9275e-3
     weighting: str = "slice"
+    reference_diameter: float | None = None
 
 
 @dataclass(frozen=True)
@@ -218,7 +221,9 @@ class Scene:
         d["neighbors"] = {"skin": "auto" if self.neighbors.skin is None else self.neighbors.skin}
         d["output"] = dataclasses.asdict(self.output)
         if self.averaging is not None:
-            d["averaging"] = dataclasses.asdict(self.averaging)
+            a = dataclasses.asdict(self.averaging)
+            d["averaging"] = {**a, "reference_diameter": "auto" if a["reference_diameter"] is None
+                              else a["reference_diameter"]}
         return d
 
     def fingerprint(self) -> str:
@@ -270,7 +275,8 @@ _TABLES: dict[str, dict[str, tuple[str, Any, str, str]]] = {
                                   "contacts": (_B, "", "")}),
     "averaging": _schema(AveragingCfg, {
         "start": (_F, "s", ">=0"), "end": (_F, "s", ""), "sample_interval": (_F, "s", ">0"),
-        "ring_width": (_F, "m", ">0"), "weighting": (_S, "", "slice|exact")}),
+        "ring_width": (_F, "m", ">0"), "weighting": (_S, "", "slice|exact"),
+        "reference_diameter": (_A, "m", ">0")}),
 }
 _TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "contact", "effects",
              "time", "neighbors", "output", "averaging")

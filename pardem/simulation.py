@@ -268,9 +268,9 @@ class Simulation:
         steps = steps[(steps <= end_step) & (steps > int(self.clock.step[0]))]
         if self.rings is not None:  # a later run() call continues the same time average
             return self.rings, steps
-        d_mean = 2.0 * float(np.mean(self._free_radii))
+        d_ref = cfg.reference_diameter or 2.0 * float(np.mean(self._free_radii))
         avg = RingAverager(g.inner_radius, g.outer_radius, cfg.ring_width, cfg.weighting,
-                           self.scene.contact.height, d_mean, self.scene.contact.k_n,
+                           self.scene.contact.height, d_ref, self.scene.contact.k_n,
                            g.omega_inner, self.decomp.comm)
         return avg, steps
 

@@ -37,7 +37,7 @@ def sheared_b():
     print(f"\n largest overlap / d: 1 s after compression {transient:.4f} (transient)")
     overlap_after_compression = sim.max_overlap()
     total, count = np.zeros(30), np.zeros(30)
-    sim.torques = []  # torque of the particles on the inner ring at each 0.1 s
+    sim.torques = []  # torque of the inner ring on the particles at each 0.1 s
     for k in range(20):
         sim.run(end=5.0 + 0.1 * (k + 1), progress=False)
         sim.torques.append(inner_ring_torque(sim.particle_arrays(), sim.contacts(),
@@ -72,7 +72,7 @@ def test_inner_ring_drags_a_shear_band(sheared_b):
 def test_ring_averages_show_the_papers_physics(sheared_b):
     """In-situ averages over t = 5 .. 7 s (21 samples): dilation and an exponential v_phi at the
     inner ring, tr F = nu C, and torque balance: 2 pi h r^2 sigma_rphi is the same in every
-    ring and equals minus the torque the particles exert on the inner ring."""
+    ring and equals the torque the inner ring exerts on the particles."""
     sim = sheared_b[0]
     f = sim.rings.fields()
     assert len(sim.rings.samples) == 21  # t = 5.0 (nearest step), 5.1, ..., 7.0
@@ -98,5 +98,8 @@ def test_ring_averages_show_the_papers_physics(sheared_b):
     print(f"pulls (ring - mean) / block error: median |pull| {np.median(np.abs(pulls)):.2f}, "
           f"max {np.abs(pulls).max():.2f}, fraction within 2 errors "
           f"{np.mean(np.abs(pulls) < 2):.2f}")
-    assert mean > 0 and t_mean < 0
-    assert abs(mean + t_mean) < 0.15 * abs(t_mean) + 3 * t_err
+    assert mean > 0 and t_mean > 0
+    assert abs(mean - t_mean) < 0.15 * abs(t_mean) + 3 * t_err
+    # the in-situ record (each rank's share, reduced with the ring sums; sampled on the
+    # snapshot grid, a few steps off these instants) measures the same mean torque
+    assert abs(f["inner_torque"] - t_mean) < 3 * (f["inner_torque_err"] + t_err)

@@ -144,14 +144,18 @@ def test_ring_sums_do_not_depend_on_the_number_of_ranks(tmp_path):
     scene = fast_shear_scene(tmp_path, averaging={"start": 0.15, "end": 0.3,
                                                   "sample_interval": 0.05,
                                                   "ring_width": 0.9275e-3})
-    sums = {}
+    sums, torques = {}, {}
     for n in (1, 2, 3):
         run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / f"r{n}"),
                  "--end", "0.31", "--quiet"], n, module=False)
-        sums[n] = read_rings(tmp_path / f"r{n}")["sums"]
+        rings = read_rings(tmp_path / f"r{n}")
+        sums[n], torques[n] = rings["sums"], rings["inner_torque_samples"]
     assert sums[1].shape[0] == 4  # samples at 0.15, 0.2, 0.25, 0.3 s
     assert np.abs(sums[1][:, :, 11]).max() > 0  # stress sums: the cell is loaded
     scale = np.abs(sums[1]).max(axis=(0, 1))  # per column
     for n in (2, 3):
         np.testing.assert_allclose(sums[n], sums[1], rtol=0, atol=1e-12 * scale.max())
         assert np.all(np.abs(sums[n] - sums[1]) <= 1e-12 * scale + 1e-300)
+        # the inner-ring torque travels in the same Allreduce
+        np.testing.assert_allclose(torques[n], torques[1], rtol=1e-12)
+    assert np.all(torques[1] > 0)  # the ring drives the packing

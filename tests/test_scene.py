@@ -118,6 +118,8 @@ BAD_COUETTE = [
     ("averaging.sample_interval", 0.0, r"[averaging] sample_interval"),
     ("averaging.ring_width", 0.0, r"[averaging] ring_width"),
     ("averaging.weighting", "area", r"[averaging] weighting = 'area': must be one of 'slice'"),
+    ("averaging.reference_diameter", -8e-3, r"[averaging] reference_diameter = -0.008"),
+    ("averaging.reference_diameter", "big", r"[averaging] reference_diameter = 'big'"),
     ("particles", [{"x": 0.0, "y": 0.0, "diameter": D_S, "mass": M_S}],
      r"[[particles]]: not allowed in a couette scene"),
     ("particles_file", "init.csv", r"particles_file: not allowed in a couette scene"),
@@ -247,6 +249,7 @@ def test_shipped_scene_values():
         assert [(sp.count, sp.diameter, sp.mass) for sp in s.species] == [(ns, D_S, M_S),
                                                                           (nl, D_L, M_L)]
         assert s.time.end == 239.0 and (s.averaging.start, s.averaging.end) == (180.0, 239.0)
+        assert s.averaging.reference_diameter == 8.0e-3  # the paper's d~ (Table 1.1)
     q = load_scene(ROOT / "run_scripts" / "couette_quick.toml")
     b = load_scene(ROOT / "run_scripts" / "couette_B.toml")
     assert q.species == b.species and q.contact == b.contact and q.geometry == b.geometry
