@@ -1,4 +1,6 @@
-"""Command line: ``pardem run SCENE.toml [--out DIR] [--end T] [--restart CHECKPOINT]``.
+"""Command line: ``pardem run SCENE.toml [--out DIR] [--end T] [--restart CHECKPOINT]``,
+``pardem average DIR [...]`` (ring averages from snapshots), ``pardem plot DIR [DIR ...]`` (the
+paper's figures).
 
 Stage: entry point. Errors in the user's input (scene, restart file, output folder) print one
 line naming the problem and exit with status 2; a run that becomes invalid exits with status 3.
@@ -34,9 +36,15 @@ def main(argv: list[str] | None = None) -> int:
     avg.add_argument("--ring-width", type=float, help="m (default: the scene's, or d_small/8)")
     avg.add_argument("--weighting", choices=["slice", "exact"])
     avg.add_argument("--out", help="folder for rings.h5/rings.csv (default: RUN_DIR/offline)")
+    plot = sub.add_parser("plot", help="the paper's figures (PNG) from ring averages")
+    plot.add_argument("run_dirs", nargs="+", help="run folder(s) with rings.h5 (several: "
+                      "one figure set comparing them)")
+    plot.add_argument("--out", help="folder for the PNGs (default: RUN_DIR/figures)")
     args = parser.parse_args(argv)
     if args.command == "average":
         return _average(args)
+    if args.command == "plot":
+        return _plot(args)
     t_start = time.perf_counter()
     from mpi4py import MPI
 
@@ -90,6 +98,28 @@ def _average(args) -> int:
         return 2
     sys.stderr.write(f"pardem: {len(avg.samples)} snapshots averaged into {avg.n_rings} rings: "
                      f"{out / 'rings.csv'}\n")
+    return 0
+
+
+def _plot(args) -> int:
+    from averaging.plots import make_figures
+    from averaging.report import load_run
+
+    runs = []
+    for d in args.run_dirs:
+        d = Path(d)
+        if not (d / "rings.h5").exists():
+            found = d / "offline" / "rings.h5"
+            if not found.exists():
+                sys.stderr.write(f"pardem: error: {d}: no rings.h5 (run a scene with an "
+                                 "[averaging] table, or `pardem average` it first)\n")
+                return 2
+            runs.append(load_run(found.parent))
+        else:
+            runs.append(load_run(d))
+    out = Path(args.out) if args.out else Path(args.run_dirs[0]) / "figures"
+    for path in make_figures(runs, out):
+        print(path)
     return 0
 
 

@@ -1,0 +1,143 @@
+"""Numbers that compare a run's ring averages with the paper (Lätzel, Luding, Herrmann).
+
+Stage: averaging (validation). Every metric is computed from ``read_rings(DIR)`` and the run's
+scene, and is defined here once; ``run_scripts/paper_figures.py`` puts them in the comparison
+table. Regions are in r~ = (r - R_i)/d~:
+
+- fit_v0, fit_s: v_phi/(Omega R_i) = v0 exp(-r~/s) over 0.25 <= r~ <= 8.1 (rings.py).
+- dilation: nu_bulk = mean nu over 10 <= r~ <= 15 (the frozen outer packing, paper §1.4.1);
+  deficit = nu_bulk - mean nu over 1 <= r~ <= 4; width = the r~ where nu, smoothed over one d~,
+  first comes within 0.01 of nu_bulk (outside the first layer, r~ > 1).
+- trF_over_nuC: mean of tr F/(nu C) over all rings with contacts (C volume-weighted, as
+  summed here; the paper's "with reasonable accuracy" uses a number-weighted C).
+- stiffness_excess: mean over the rings of (2 pi E/k'_n)/tr F - 1 in 1 <= r~ <= 15 (the
+  paper: "the mean-field value underestimates the simulation data by some per cent").
+- orientation: the angles of F, sigma, eps averaged over the inner ten layers (0.5 <= r~ <= 9)
+  and the fraction of those rings where phi_F > phi_sigma > phi_eps (paper Fig. 1.4).
+- torque balance: T(r) = 2 pi h r^2 sigma_rphi over 1 <= r~ <= 15. Its mean and the error of
+  that mean come from the per-sample sums (T averaged over the zone in every sample, then
+  block errors over time: neighbouring rings share particles, so ring errors are not
+  independent). Flatness is judged twice: ring by ring (d~/8) and in windows of one d~ (the
+  particle-volume stress obeys the balance only up to O(d) structure, which does not average
+  out in time in the frozen outer packing): chi^2/dof about the mean with block errors
+  (about 1: flat within the errors) and the fraction within 2 errors. Compared with the
+  torque of the inner ring on the particles, from its contacts.
+- mu_c_outer: median of mu_c/k'_n over 4 <= r~ <= 15 (the paper: mu_c grows with density;
+  the median, because kappa_zr passes through zero in some rings).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+
+from pardem.scene import load_scene
+
+from .rings import ERROR_BLOCKS, read_rings
+
+PAPER = {"A": {"v0": 0.670, "s": 1.662, "nu_bar": 0.8084},
+         "B": {"v0": 0.756, "s": 1.584, "nu_bar": 0.8149},
+         "C": {"v0": 0.788, "s": 1.191, "nu_bar": 0.8194}}
+
+
+def global_volume_fraction(scene) -> float:
+    """v-bar of SPEC §2: free disks plus half of every wall disk, over pi (R_o^2 - R_i^2)."""
+    g = scene.geometry
+    disks = sum(s.count * math.pi * s.diameter**2 / 4 for s in scene.species)
+    walls = 0
+    for radius in (g.inner_radius, g.outer_radius):
+        walls += max(int(round(2 * math.pi * radius / g.wall_particle_spacing)), 1)
+    wall_area = 0.5 * walls * math.pi * g.wall_particle_diameter**2 / 4
+    return (disks + wall_area) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
+
+
+def load_run(run_dir: str | Path) -> dict:
+    """Ring fields of a folder with rings.h5 (a run folder, or its offline/ subfolder) plus the
+    run's scene-derived constants (k'_n, h, d~, Omega R_i)."""
+    run_dir = Path(run_dir)
+    rings = read_rings(run_dir)
+    scene_file = run_dir / "scene.toml"
+    scene = load_scene(scene_file if scene_file.exists() else run_dir.parent / "scene.toml")
+    c, g = scene.contact, scene.geometry
+    d_ref = (rings["r"][1] - rings["r"][0]) / (rings["r_tilde"][1] - rings["r_tilde"][0])
+    name = scene.info.name.rsplit("-", 1)[-1]
+    return {"dir": run_dir, "name": name, "label": scene.info.name, "rings": rings,
+            "k_n_2d": c.k_n / c.height, "height": c.height, "d_ref": d_ref,
+            "wall_speed": g.omega_inner * g.inner_radius, "r_in": g.inner_radius,
+            "nu_bar": global_volume_fraction(scene), "n_samples": rings["times"].size,
+            "window": (float(rings["times"][0]), float(rings["times"][-1]))}
+
+
+def _region(f: dict, lo: float, hi: float) -> np.ndarray:
+    return (f["r_tilde"] >= lo) & (f["r_tilde"] <= hi)
+
+
+def _mean(values: np.ndarray, median: bool = False) -> float:
+    """Mean (or median) of the finite values; NaN for a region the cell does not have."""
+    values = values[np.isfinite(values)]
+    if not values.size:
+        return math.nan
+    return float(np.median(values) if median else np.mean(values))
+
+
+def metrics(run: dict) -> dict:
+    f = run["rings"]
+    out = {"fit_v0": float(f["fit_v0"]), "fit_s": float(f["fit_s"])}
+    bulk = _mean(f["nu"][_region(f, 10, 15)])
+    out["nu_bulk"] = bulk
+    out["dilation_deficit"] = bulk - _mean(f["nu"][_region(f, 1, 4)])
+    per_d = max(int(round(1.0 / (f["r_tilde"][1] - f["r_tilde"][0]))), 1)
+    smooth = np.convolve(f["nu"], np.ones(per_d) / per_d, mode="same")
+    recovered = np.flatnonzero((f["r_tilde"] > 1) & (smooth >= bulk - 0.01))
+    out["dilation_width"] = float(f["r_tilde"][recovered[0]]) if recovered.size else math.nan
+    has = f["C"] > 0
+    out["trF_over_nuC"] = _mean(f["tr_F"][has] / (f["nu"][has] * f["C"][has]))
+    zone = _region(f, 1, 15) & (f["tr_F"] > 0)
+    out["stiffness_excess"] = _mean(f["stiffness"][zone] / f["tr_F"][zone] - 1)
+    inner = _region(f, 0.5, 9)
+    for t in ("F", "sigma", "eps"):
+        out[f"angle_{t}"] = _mean(f[f"angle_{t}"][inner])
+    ordered = (f["angle_F"] > f["angle_sigma"]) & (f["angle_sigma"] > f["angle_eps"])
+    out["ordering_fraction"] = _mean(ordered[inner].astype(float))
+    zone = _region(f, 1, 15)
+    per_ring = ring_torques(run)[:, zone]  # samples x rings
+    per_window = np.array([w.mean(axis=1) for w in _windows(per_ring, 1.0 / _step(f))]).T
+    mean, mean_err = block_mean(per_ring.mean(axis=1))
+    out["shear_torque_mean"], out["shear_torque_mean_err"] = mean, mean_err
+    for label, series in (("", per_ring), ("_window", per_window)):
+        values, errs = block_mean(series)
+        dev = (values - values.mean()) / errs
+        out[f"shear_torque_chi2{label}"] = float(np.sum(dev**2) / (dev.size - 1))
+        out[f"shear_torque_within_2err{label}"] = float(np.mean(np.abs(dev) < 2))
+    out["inner_torque"] = float(f["inner_torque"])
+    out["inner_torque_err"] = float(f.get("inner_torque_err", math.nan))
+    mu = f["mu_c"][_region(f, 4, 15)] / run["k_n_2d"]
+    out["mu_c_outer"] = _mean(mu, median=True)
+    return out
+
+
+def ring_torques(run: dict) -> np.ndarray:
+    """T = 2 pi h r^2 sigma_rphi (N m) of every sample and ring [samples, rings], from the raw
+    sums (sigma_rphi = stress_rphi / V with V = 2 pi h r dr)."""
+    f = run["rings"]
+    col = f["columns"].index("stress_rphi")
+    dr = f["r"][1] - f["r"][0]
+    return f["sums"][:, :, col] * f["r"] / dr
+
+
+def block_mean(series: np.ndarray, blocks: int = ERROR_BLOCKS):
+    """Mean over the samples (axis 0) and its standard error from consecutive blocks, as
+    RingAverager.fields does for every field."""
+    parts = np.array([b.mean(axis=0) for b in np.array_split(series, blocks)])
+    return series.mean(axis=0), parts.std(axis=0, ddof=1) / np.sqrt(len(parts))
+
+
+def _step(f: dict) -> float:
+    return float(f["r_tilde"][1] - f["r_tilde"][0])
+
+
+def _windows(per_ring: np.ndarray, rings_per_window: float):
+    n = max(int(round(rings_per_window)), 1)
+    return [per_ring[:, k:k + n] for k in range(0, per_ring.shape[1] - n + 1, n)]
