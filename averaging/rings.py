@@ -115,9 +115,7 @@ class RingAverager:
         for key, value in mean.items():
             out[key] = value
             if len(per) > 1:
-                vals = np.array([p[key] for p in per])
-                with np.errstate(invalid="ignore"):
-                    out[key + "_err"] = np.nanstd(vals, axis=0, ddof=1) / math.sqrt(len(per))
+                out[key + "_err"] = block_error(np.array([p[key] for p in per]))
         return out
 
     def write(self, out_dir: str | Path) -> None:
@@ -146,6 +144,19 @@ class RingAverager:
                    comments="")
         os.replace(tmp, out_dir / "rings.csv")
         write_rings_vtu(out_dir / "rings.vtu", f, self.r_in + np.arange(self.n_rings + 1) * self.dr)
+
+
+def block_error(blocks: np.ndarray) -> np.ndarray:
+    """Standard error of the mean from block values [n_blocks, ...]: std (ddof 1) over the
+    finite blocks / sqrt(their number); NaN where fewer than two are finite (a ring that is
+    NaN in every block, e.g. without contacts)."""
+    ok = np.isfinite(blocks)
+    n = ok.sum(axis=0)
+    filled = np.where(ok, blocks, 0.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        mean = filled.sum(axis=0) / n
+        var = np.where(ok, (filled - mean) ** 2, 0.0).sum(axis=0) / (n - 1)
+        return np.where(n >= 2, np.sqrt(var) / np.sqrt(n), np.nan)
 
 
 def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarray | None = None,

@@ -11,7 +11,10 @@ where A(R) is the disk's area inside radius R. Two choices of A:
 
 Both telescope: the weights of one disk sum to 1 exactly when the rings cover it. Area below
 r0 is given to ring 0 and area beyond the last ring to ring n-1, so the sum is always 1 (a
-particle pressed into a ring surface reaches a little past it).
+particle pressed into a ring surface reaches a little past it). Near a tangent line or circle
+the formulas lose digits (acos near +-1: A(R) came out 1e-10 above pi a^2 for a rim exactly on
+a ring edge), so the cumulative area is kept within [0, pi a^2] and non-decreasing: no weight
+is ever negative, and the sum still telescopes to 1.
 """
 
 from __future__ import annotations
@@ -62,6 +65,7 @@ def ring_weights(rho, a, r0, dr, n_rings, exact, rings, weights):
     m = 0
     for k in range(k_lo, k_hi + 1):
         outer = full if k == n_rings - 1 else inside_area(r0 + (k + 1) * dr, rho, a, exact)
+        outer = min(max(outer, below), full)
         rings[m] = k
         weights[m] = (outer - below) / full
         below = outer

@@ -66,7 +66,12 @@ def _couette(scene: Scene) -> Initial:
             f"ring ({g.inner_radius} m) and [geometry] outer_start_radius = "
             f"{g.outer_start_radius} m; increase outer_start_radius or reduce the counts")
     chosen = sites[np.sort(rng.choice(len(sites), size=n, replace=False))]
-    room = np.maximum(0.5 * spacing - radius, 0.0) * 0.99
+    # jitter within the site's cell, and never across the band the centre must stay in (clear
+    # of both rings' wall disks): in a sparse scene the cell is much wider than the band
+    r_site = np.hypot(chosen[:, 0], chosen[:, 1])
+    band = np.minimum(r_site - (g.inner_radius + wall_r + radius),
+                      (g.outer_start_radius - wall_r - radius) - r_site)
+    room = np.maximum(np.minimum(0.5 * spacing - radius, band), 0.0) * 0.99
     ang = rng.uniform(0.0, 2.0 * math.pi, n)
     rad = room * np.sqrt(rng.uniform(0.0, 1.0, n))
     x = chosen + np.column_stack([rad * np.cos(ang), rad * np.sin(ang)])

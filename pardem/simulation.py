@@ -74,7 +74,7 @@ class Simulation:
             r_in=g.inner_radius if g else 0.0, omega_in=g.omega_inner if g else 0.0,
             r_out=g.outer_radius if g else 0.0, r_out0=g.outer_start_radius if g else 0.0,
             t_comp=g.compression_time if g else 0.0, skin=skin,
-            escape_radius=g.outer_start_radius + 0.5 * g.wall_particle_diameter if g else math.inf)
+            escape_radius=math.inf)
         self.n_free = init.n_free
         self._free_radii = init.radius[:init.n_free].copy()
         self.decomp = Decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
@@ -325,10 +325,13 @@ class Simulation:
                           *rows])
 
     def _bad_particle_message(self, k: int) -> str:
-        return (f"particle id {int(self.ps.gid[k])} became invalid at t = {self.time:.6f} s: "
-                f"position ({self.ps.x[k, 0]:.6g}, {self.ps.x[k, 1]:.6g}) m, velocity "
-                f"({self.ps.v[k, 0]:.6g}, {self.ps.v[k, 1]:.6g}) m/s (non-finite, or outside the "
-                f"cell); the last checkpoint is kept")
+        ps = self.ps
+        x, ref = ps.x[k], ps.x_ref[k]
+        return (f"particle id {int(ps.gid[k])} became invalid at t = {self.time:.6f} s (step "
+                f"{int(self.clock.step[0])}): position ({x[0]:.6g}, {x[1]:.6g}) m, velocity "
+                f"({ps.v[k, 0]:.6g}, {ps.v[k, 1]:.6g}) m/s (non-finite, or outside the cell; "
+                f"at the last neighbour-list build it was at ({ref[0]:.6g}, {ref[1]:.6g}) m); "
+                "the last checkpoint is kept")
 
     # -- measurements (collective under MPI: every rank must call them) ----------------------
     def kinetic_energy(self) -> float:
@@ -461,10 +464,33 @@ class Simulation:
         if arrays["gid"].size != n:
             raise SceneError(f"--restart {path}: {arrays['gid'].size} particles in the "
                              f"checkpoint, {n} in the scene")
+        _check_restored(path, arrays, ps)
         for k in ARRAYS:
             getattr(ps, k)[: arrays[k].shape[0]] = arrays[k]
         self.clock.step[0] = int(attrs["step"])
         return (arrays["pair_lo"], arrays["pair_hi"], arrays["pair_xi"]) if self.friction else None
+
+
+def _check_restored(path, arrays: dict[str, np.ndarray], ps) -> None:
+    """A checkpoint whose bytes were damaged may still read as HDF5 (it has no checksums): its
+    particles must be the scene's (ids, kinds, radii, masses: bit for bit) and every state value
+    finite, else the restart is refused instead of continuing from garbage."""
+    for key in ("gid", "kind", "radius", "mass"):
+        bad = np.flatnonzero(np.asarray(arrays[key]) != getattr(ps, key))
+        if bad.size:
+            raise SceneError(f"--restart {path}: corrupted checkpoint: {key} of particle row "
+                             f"{int(bad[0])} is {arrays[key][bad[0]]!r}, the scene has "
+                             f"{getattr(ps, key)[bad[0]]!r}")
+    for key in ("x", "v", "theta", "omega", "f", "tau", "xi_wall", "pair_xi"):
+        bad = np.flatnonzero(~np.isfinite(np.asarray(arrays[key], float)).reshape(
+            len(arrays[key]), -1).all(axis=1)) if len(arrays[key]) else []
+        if len(bad):
+            raise SceneError(f"--restart {path}: corrupted checkpoint: non-finite {key} in row "
+                             f"{int(bad[0])}")
+    lo, hi = np.asarray(arrays["pair_lo"]), np.asarray(arrays["pair_hi"])
+    if lo.size and not (np.all(lo < hi) and lo.min() >= 0 and hi.max() < ps.gid.size):
+        raise SceneError(f"--restart {path}: corrupted checkpoint: spring keys are not pairs "
+                         f"of particle ids 0..{ps.gid.size - 1}")
 
 
 def _clear_wall_loads(arrays: dict[str, np.ndarray], kind: str, force: str, torque: str) -> None:

@@ -84,7 +84,8 @@ class Params(NamedTuple):
     dt (s); k_n (N/m); gamma_n (kg/s); k_t (N/m); mu; mu_b_g = mu_bottom * g (m/s^2);
     r_in (m) inner ring radius; omega_in (rad/s); r_out (m) final outer radius; r_out0 (m)
     outer radius at t = 0; t_comp (s) compression time; skin (m) Verlet skin;
-    escape_radius (m): a particle farther than this from the axis is an error (inf for free scenes).
+    escape_radius (m): a particle farther than this from the axis is an error (free scenes:
+    inf; Couette scenes check against the rings' current radii instead).
     """
 
     dt: float

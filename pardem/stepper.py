@@ -173,7 +173,13 @@ def drift(ps, clock, prm, fx):
     dt = prm.dt
     h = 0.5 * dt
     n_move = clock.n_move[0]
-    esc2 = prm.escape_radius * prm.escape_radius
+    # a centre beyond a ring line overlaps that ring by more than a radius: it has left the cell
+    # (free scenes: escape_radius = inf, nothing to leave)
+    if walls:
+        r_hi = outer_radius((clock.step[0] + 1) * dt, prm)[0]
+        hi2, lo2 = r_hi * r_hi, prm.r_in * prm.r_in
+    else:
+        hi2, lo2 = prm.escape_radius * prm.escape_radius, 0.0
     max_d2 = 0.0
     max_v2 = 0.0
     bad = -1
@@ -190,7 +196,8 @@ def drift(ps, clock, prm, fx):
         if rotation:
             ps.theta[i] += dt * ps.omega[i]
             ps.w_pred[i] = ps.omega[i] + h * ps.tau[i] * ps.inv_inertia[i]
-        if not (x0 * x0 + x1 * x1 <= esc2):  # also catches NaN
+        r2 = x0 * x0 + x1 * x1
+        if not (lo2 <= r2 <= hi2):  # also catches NaN
             bad = i
         dx = x0 - ps.x_ref[i, 0]
         dy = x1 - ps.x_ref[i, 1]

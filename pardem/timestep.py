@@ -3,6 +3,11 @@
 Head-on, without friction: omega_0^2 = k_n/m_red, eta = gamma_n/(2 m_red),
 omega = sqrt(omega_0^2 - eta^2), contact time t_c = pi/omega, restitution e_n = exp(-pi eta/omega).
 The default step is t_c(smallest pair) / dt_per_contact; a step above t_c/5 is refused.
+
+The linear spring resolves a contact in time independently of the impact speed, but the overlap
+grows with it: a disk hit head-on by a wall moving at v overlaps it by up to v/omega_0 (omega_0
+of the disk against the infinitely massive wall). Ring speeds that would push that beyond
+MAX_IMPACT_OVERLAP of the smallest diameter are refused: disks would pass through each other.
 Units SI: N/m, kg/s, kg, s.
 """
 
@@ -68,11 +73,46 @@ def smallest_contact_time(scene: Scene) -> float:
     return contact_time(c.k_n, gamma, smallest_reduced_mass(scene))
 
 
+MAX_IMPACT_OVERLAP = 0.25  # of the smallest free-particle diameter
+
+
+def check_wall_speeds(scene: Scene) -> None:
+    """SceneError if the inner ring's surface speed or the outer ring's largest compression speed
+    would drive head-on overlaps beyond MAX_IMPACT_OVERLAP of the smallest diameter."""
+    g = scene.geometry
+    if g is None:
+        return
+    if scene.particles is not None:
+        m = float(np.min(scene.particles.mass))
+    else:
+        m = min(s.mass for s in scene.species if s.count > 0)
+    w0 = math.sqrt(scene.contact.k_n / m)
+    limit = MAX_IMPACT_OVERLAP * scene.min_free_diameter * w0  # m/s
+    speeds = [("omega_inner", abs(g.omega_inner) * g.inner_radius, "rad/s",
+               limit / g.inner_radius, "|omega_inner| <=")]
+    if g.compression_time > 0:
+        rate = 0.5 * math.pi * (g.outer_start_radius - g.outer_radius) / g.compression_time
+        speeds.append(("compression_time", rate, "s",
+                       0.5 * math.pi * (g.outer_start_radius - g.outer_radius) / limit,
+                       "compression_time >="))
+    for key, v, unit, bound, rule in speeds:
+        if v > limit:
+            value = getattr(g, key)
+            raise SceneError(
+                f"[geometry] {key} = {value!r}: the ring surface moves at up to {v:.3g} m/s; a "
+                f"disk hit at that speed overlaps it by up to v/sqrt(k_n/m) = "
+                f"{100 * v / w0 / scene.min_free_diameter:.0f} % of its diameter, beyond the "
+                f"{100 * MAX_IMPACT_OVERLAP:.0f} % the contact model resolves; use {rule} "
+                f"{bound:.4g} {unit}, or a stiffer k_n")
+
+
 def resolve_dt(scene: Scene) -> float:
     """The run's time step (s): [time] dt, or t_c / dt_per_contact when dt = "auto".
 
-    Raises SceneError when dt > t_c/5: a contact would be resolved by fewer than five steps.
+    Raises SceneError when dt > t_c/5 (a contact would be resolved by fewer than five steps) or
+    when a ring moves too fast for the contact law (``check_wall_speeds``).
     """
+    check_wall_speeds(scene)
     t_c = smallest_contact_time(scene)
     dt = scene.time.dt if scene.time.dt is not None else t_c / scene.time.dt_per_contact
     if dt > t_c / 5.0:
