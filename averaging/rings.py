@@ -66,7 +66,7 @@ class RingAverager:
             raise ValueError(f"weighting {weighting!r}: allowed are {sorted(WEIGHTINGS)}")
         self.r_in, self.dr, self.height, self.d_ref = r_in, dr, height, d_ref
         self.n_rings = max(int(math.ceil((r_out - r_in) / dr - 1e-9)), 1)
-        self.exact = WEIGHTINGS[weighting] == WEIGHTINGS["exact"]
+        self.kind = WEIGHTINGS[weighting]
         self.weighting = weighting
         self.comm = comm
         self.k_n, self.omega_in = k_n, omega_in  # for 2 pi E / k'_n etc. and v_phi / (Omega R_i)
@@ -81,7 +81,7 @@ class RingAverager:
     def add(self, s: Sample, time: float) -> None:
         """Add one sample (this rank's particles; the totals are reduced over ranks)."""
         local = np.zeros((self.n_rings, N_COLUMNS))
-        accumulate(*s[:-1], self.height, self.r_in, self.dr, self.exact, local)
+        accumulate(*s[:-1], self.height, self.r_in, self.dr, self.kind, local)
         sums, scalars = reduce_sums(local, np.array([s.inner_torque]), self.comm)
         self.samples.append(sums)
         self.torques.append(float(scalars[0]))

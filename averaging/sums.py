@@ -34,7 +34,7 @@ import math
 import numba as nb
 import numpy as np
 
-from .weights import ring_weights
+from .weights import extent, ring_weights
 
 COLUMNS = ("vol", "count", "mass", "mom_r", "mom_phi", "spin", "coord",
            "fabric_rr", "fabric_rphi", "fabric_phir", "fabric_phiphi",
@@ -51,7 +51,7 @@ UNITS.update({c: u for prefix, u in (("fabric", "m^3"), ("stress", "N m"), ("def
 
 
 @nb.njit(cache=True, error_model="numpy")
-def accumulate(x, v, omega, radius, mass, start, cn, cdelta, cf, cxi, height, r0, dr, exact,
+def accumulate(x, v, omega, radius, mass, start, cn, cdelta, cf, cxi, height, r0, dr, kind,
                out):
     """Add one sample's ring sums into out [n_rings, N_COLUMNS].
 
@@ -60,7 +60,7 @@ def accumulate(x, v, omega, radius, mass, start, cn, cdelta, cf, cxi, height, r0
     to p), cdelta [m] (overlap), cf [m,2] (force on p), cxi [m,2] (tangential spring, in p's
     orientation)."""
     n_rings = out.shape[0]
-    cap = int(2.0 * radius.max() / dr) + 3 if radius.size else 3
+    cap = int(2.0 * extent(radius.max(), kind) / dr) + 3 if radius.size else 3
     rings = np.empty(cap, np.int64)
     wts = np.empty(cap)
     q = np.empty(N_COLUMNS)
@@ -105,7 +105,7 @@ def accumulate(x, v, omega, radius, mass, start, cn, cdelta, cf, cxi, height, r0
             q[20] -= lxf * lphi
             q[21] -= lxd * lr
             q[22] -= lxd * lphi
-        m = ring_weights(rho, a, r0, dr, n_rings, exact, rings, wts)
+        m = ring_weights(rho, a, r0, dr, n_rings, kind, rings, wts)
         for k in range(m):
             w = wts[k]
             row = rings[k]

@@ -1,13 +1,17 @@
-"""Ring weights: the fraction of a disk's area that lies in each ring about the cell axis.
+"""Ring weights: the share of a disk that each ring about the cell axis receives.
 
 Stage: averaging. Rings k = 0..n-1 span [r0 + k dr, r0 + (k+1) dr). A disk of radius a whose
-centre is at distance rho from the axis gets weight w_k = (A(r_{k+1}) - A(r_k)) / (pi a^2),
-where A(R) is the disk's area inside radius R. Two choices of A:
+centre is at distance rho from the axis gets weight w_k = W(r_{k+1}) - W(r_k), where W(R) is
+the share of the disk counted inside radius R. Four choices of W:
 
-- ``slice`` (the paper's): the circles r = R are replaced by straight lines at the disk, so
-  A(R) is the area of the disk on the near side of a chord at signed distance s = R - rho
-  from its centre: A = a^2 acos(-s/a) + s sqrt(a^2 - s^2). Error O(a/rho).
-- ``exact``: A(R) is the area of the disk inside the circle of radius R (a lens).
+- ``slice`` (the paper's): the disk's area fraction on the near side of a straight chord at
+  signed distance s = R - rho from its centre (the circle r = R replaced by a line at the
+  disk): W = (a^2 acos(-s/a) + s sqrt(a^2 - s^2)) / (pi a^2). Error O(a/rho).
+- ``exact``: the area fraction of the disk inside the circle of radius R (a lens).
+- ``centre``: the whole disk counts where its centre is: W = 1 if rho < R else 0.
+- ``gaussian``: coarse graining with a normal kernel in r of width sigma = a/2 (the radial
+  spread of the disk's own area, which has variance a^2/4), as in MercuryCG:
+  W = Phi((R - rho)/sigma), cut at 4 sigma.
 
 Both telescope: the weights of one disk sum to 1 exactly when the rings cover it. Area below
 r0 is given to ring 0 and area beyond the last ring to ring n-1, so the sum is always 1 (a
@@ -24,8 +28,34 @@ import math
 import numba as nb
 import numpy as np
 
-SLICE, EXACT = 0, 1
-WEIGHTINGS = {"slice": SLICE, "exact": EXACT}
+SLICE, EXACT, CENTRE, GAUSSIAN = 0, 1, 2, 3
+WEIGHTINGS = {"slice": SLICE, "exact": EXACT, "centre": CENTRE, "gaussian": GAUSSIAN}
+GAUSS_CUT = 4.0  # kernel cut-off in units of sigma = a/2
+
+
+@nb.njit(cache=True, error_model="numpy")
+def extent(a, kind):
+    """How far (m) from its centre a disk of radius a reaches with this weighting."""
+    if kind == CENTRE:
+        return 0.0
+    if kind == GAUSSIAN:
+        return GAUSS_CUT * 0.5 * a
+    return a
+
+
+@nb.njit(cache=True, error_model="numpy")
+def inside_share(radius_r, rho, a, kind):
+    """W(R): the share (0..1) of the disk counted inside radius R."""
+    if kind == CENTRE:
+        return 1.0 if rho < radius_r else 0.0
+    if kind == GAUSSIAN:
+        z = (radius_r - rho) / (0.5 * a)
+        if z <= -GAUSS_CUT:
+            return 0.0
+        if z >= GAUSS_CUT:
+            return 1.0
+        return 0.5 * math.erfc(-z / math.sqrt(2.0))
+    return inside_area(radius_r, rho, a, kind == EXACT) / (math.pi * a * a)
 
 
 @nb.njit(cache=True, error_model="numpy")
@@ -55,19 +85,19 @@ def inside_area(radius_r, rho, a, exact):
 
 
 @nb.njit(cache=True, error_model="numpy")
-def ring_weights(rho, a, r0, dr, n_rings, exact, rings, weights):
-    """Fill rings[:m], weights[:m] with the rings the disk overlaps and its weights; return m.
-    ``rings``/``weights`` must hold at least 2 a / dr + 2 entries."""
-    k_lo = min(max(int(math.floor((rho - a - r0) / dr)), 0), n_rings - 1)
-    k_hi = min(max(int(math.floor((rho + a - r0) / dr)), 0), n_rings - 1)
-    full = math.pi * a * a
-    below = 0.0  # area inside the ring's inner edge (ring 0 also takes what lies below r0)
+def ring_weights(rho, a, r0, dr, n_rings, kind, rings, weights):
+    """Fill rings[:m], weights[:m] with the rings the disk reaches and its weights; return m.
+    ``rings``/``weights`` must hold at least 2 extent(a, kind) / dr + 2 entries."""
+    reach = extent(a, kind)
+    k_lo = min(max(int(math.floor((rho - reach - r0) / dr)), 0), n_rings - 1)
+    k_hi = min(max(int(math.floor((rho + reach - r0) / dr)), 0), n_rings - 1)
+    below = 0.0  # share inside the ring's inner edge (ring 0 also takes what lies below r0)
     m = 0
     for k in range(k_lo, k_hi + 1):
-        outer = full if k == n_rings - 1 else inside_area(r0 + (k + 1) * dr, rho, a, exact)
-        outer = min(max(outer, below), full)
+        outer = 1.0 if k == n_rings - 1 else inside_share(r0 + (k + 1) * dr, rho, a, kind)
+        outer = min(max(outer, below), 1.0)
         rings[m] = k
-        weights[m] = (outer - below) / full
+        weights[m] = outer - below
         below = outer
         m += 1
     return m
@@ -77,9 +107,10 @@ def weights_table(rho: np.ndarray, a: np.ndarray, r0: float, dr: float, n_rings:
                   weighting: str) -> np.ndarray:
     """Dense weights [n_particles, n_rings] (tests and small cases)."""
     out = np.zeros((rho.size, n_rings))
-    cap = int(2 * a.max() / dr) + 3
+    kind = WEIGHTINGS[weighting]
+    cap = int(2 * extent(a.max(), kind) / dr) + 3
     rings, w = np.zeros(cap, np.int64), np.zeros(cap)
     for p in range(rho.size):
-        m = ring_weights(rho[p], a[p], r0, dr, n_rings, WEIGHTINGS[weighting] == EXACT, rings, w)
+        m = ring_weights(rho[p], a[p], r0, dr, n_rings, kind, rings, w)
         out[p, rings[:m]] = w[:m]
     return out

@@ -34,7 +34,7 @@ def main(argv: list[str] | None = None) -> int:
     avg.add_argument("--start", type=float, help="s (default: the scene's [averaging] start)")
     avg.add_argument("--end", type=float, help="s (default: the scene's [averaging] end)")
     avg.add_argument("--ring-width", type=float, help="m (default: the scene's, or d_small/8)")
-    avg.add_argument("--weighting", choices=["slice", "exact"])
+    avg.add_argument("--weighting", choices=["slice", "exact", "centre", "gaussian"])
     avg.add_argument("--out", help="folder for rings.h5/rings.csv (default: RUN_DIR/offline)")
     plot = sub.add_parser("plot", help="the paper's figures (PNG) from ring averages")
     plot.add_argument("run_dirs", nargs="+", help="run folder(s) with rings.h5 (several: "

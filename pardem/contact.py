@@ -1,8 +1,9 @@
 """The contact law of SPEC §3 (paper eqs. 1.1-1.4), specialised on the scene's effects.
 
 Stage: force kernels. ``contact_law`` and ``pair_force`` are stateless jitted functions that the
-step loop inlines; their last three arguments are the effect switches (damping, friction,
-clip). The step loop passes compile-time constants there, so a disabled effect is removed by the
+step loop inlines; their last four arguments are the effect switches (damping, friction,
+clip, window: the damping weight at contact entry and exit, part of the default integrator).
+The step loop passes compile-time constants there, so a disabled effect is removed by the
 compiler (no branch per contact, no history access). Keeping these module-level (not closures)
 lets numba's on-disk cache serve them to every later process.
 
@@ -34,15 +35,18 @@ class LawOptions(NamedTuple):
 
 
 @nb.njit(**INLINE)
-def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip):
+def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip, window):
     """``-> (fn, ftx, fty, xix, xiy, sliding)`` for a contact with normal (nx, ny), overlap
     delta (m) and relative contact velocity v_ij = (vx, vy) (m/s); (xix, xiy) is the spring
     before this step, the one returned is updated (rotated into the current tangent plane,
     incremented by v_ij^t dt, capped). delta <= 0 is allowed (a pair within half a step of
-    touching): it gets only its share of the damping force, no elastic force and no spring."""
+    touching): it gets only its share of the damping force, no elastic force and no spring.
+    Without ``window`` the damping acts in full while delta > 0 (plain velocity Verlet)."""
     vn = vx * nx + vy * ny  # = -delta_dot
     fn = prm.k_n * delta if delta > 0.0 else 0.0
-    if damping:
+    if damping and not window:
+        fn -= prm.gamma_n * vn if delta > 0.0 else 0.0
+    elif damping:
         # Velocity Verlet applies each force sample for one window [t - dt/2, t + dt/2]. The
         # damping term jumps at contact entry and exit, so weight it by the in-contact
         # fraction of the window; otherwise e_n carries an O(dt) error that depends on where
@@ -79,7 +83,8 @@ def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip):
 
 
 @nb.njit(**INLINE)
-def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, friction, clip):
+def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, friction, clip,
+               window):
     """Disk-disk contact. (dx, dy) = r_i - r_j, (dvx, dvy) = v_i - v_j, wi, wj spins; reach (m)
     bounds how far any overlap can change in half a step (pairs that close get their share of
     damping). Returns ``(active, fx, fy, tau_i, tau_j, xix, xiy)``: force on i (j gets -f),
@@ -87,7 +92,7 @@ def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, 
     in the swap)."""
     r2 = dx * dx + dy * dy
     rs = ai + aj
-    lim = rs + reach if damping else rs
+    lim = rs + reach if damping and window else rs
     if r2 >= lim * lim:
         return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
     dist = math.sqrt(r2)
@@ -98,7 +103,7 @@ def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, 
     s = ai * wi + aj * wj
     # v_ij = dv - s (z x n), with z x n = (-ny, nx)
     fn, ftx, fty, xix, xiy, _ = contact_law(nx, ny, delta, dvx + s * ny, dvy - s * nx, xix, xiy,
-                                            prm, damping, friction, clip)
+                                            prm, damping, friction, clip, window)
     # torque of f_t about each centre, lever (a - delta/2) along -n for i and +n for j
     nxft = nx * fty - ny * ftx
     return (True, fn * nx + ftx, fn * ny + fty, -(ai - 0.5 * delta) * nxft,

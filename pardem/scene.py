@@ -132,11 +132,16 @@ class Effects:
 @dataclass(frozen=True)
 class TimeCfg:
     """``[time]``: dt (s, or "auto" = None: t_c(smallest pair) / dt_per_contact; default auto),
-    dt_per_contact (>= 5, default 50), end (s, 239.0)."""
+    dt_per_contact (>= 5, default 50), end (s, 239.0), integrator ("verlet": velocity Verlet
+    whose velocity-dependent forces use the velocity predicted at the new step, v + dt/2 a,
+    with the damping of a contact that starts or ends within a step weighted by its in-contact
+    fraction (default); "verlet-halfstep": plain velocity Verlet with the half-step velocity
+    in those forces and no weighting, as in LAMMPS GRANULAR; docs/accuracy.md compares them)."""
 
     dt: float | None = None
     dt_per_contact: float = 50.0
     end: float = 239.0
+    integrator: str = "verlet"
 
 
 @dataclass(frozen=True)
@@ -160,8 +165,9 @@ class OutputCfg:
 @dataclass(frozen=True)
 class AveragingCfg:
     """``[averaging]`` (optional; in-situ ring averaging): start (s, 180.0), end (s, 239.0),
-    sample_interval (s, 0.1), ring_width (m, 0.9275e-3 = d_small/8), weighting ("slice" |
-    "exact", default "slice"), reference_diameter (m, the d~ of r~ = (r - R_i)/d~ and of the
+    sample_interval (s, 0.1), ring_width (m, 0.9275e-3 = d_small/8), weighting ("slice" (the
+    paper's) | "exact" | "centre" | "gaussian", see averaging/weights.py; default "slice"),
+    reference_diameter (m, the d~ of r~ = (r - R_i)/d~ and of the
     v_phi decay length; "auto" = None: the mean free-particle diameter; the paper's scenes
     set 8.0e-3)."""
 
@@ -268,14 +274,15 @@ _TABLES: dict[str, dict[str, tuple[str, Any, str, str]]] = {
         "height": (_F, "m", ">0")}),
     "effects": _schema(Effects, {f.name: (_B, "", "") for f in dataclasses.fields(Effects)}),
     "time": _schema(TimeCfg, {"dt": (_A, "s", ">0"), "dt_per_contact": (_F, "", ">=5"),
-                              "end": (_F, "s", ">0")}),
+                              "end": (_F, "s", ">0"),
+                              "integrator": (_S, "", "verlet|verlet-halfstep")}),
     "neighbors": _schema(Neighbors, {"skin": (_A, "m", ">0")}),
     "output": _schema(OutputCfg, {"snapshot_interval": (_F, "s", ">0"),
                                   "checkpoint_interval": (_F, "s", ">0"),
                                   "contacts": (_B, "", "")}),
     "averaging": _schema(AveragingCfg, {
         "start": (_F, "s", ">=0"), "end": (_F, "s", ""), "sample_interval": (_F, "s", ">0"),
-        "ring_width": (_F, "m", ">0"), "weighting": (_S, "", "slice|exact"),
+        "ring_width": (_F, "m", ">0"), "weighting": (_S, "", "slice|exact|centre|gaussian"),
         "reference_diameter": (_A, "m", ">0")}),
 }
 _TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "contact", "effects",

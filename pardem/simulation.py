@@ -58,7 +58,8 @@ class Simulation:
         self.friction = e.tangential_friction
         self.options = StepOptions(
             LawOptions(e.normal_damping, e.tangential_friction, e.clip_attractive_normal),
-            e.rotation, e.bottom_friction, scene.info.kind == "couette")
+            e.rotation, e.bottom_friction, scene.info.kind == "couette",
+            predict=scene.time.integrator == "verlet")
         self.stepper = make_stepper(self.options)
         self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "averaging": 0.0,
                        "snapshots": 0.0, "checkpoints": 0.0, "progress": 0.0}

@@ -28,7 +28,8 @@ is computed from the same inputs in the same orientation on both. The only globa
 (largest displacement and speed) are maxima, which are exact.
 
 The stages are module-level jitted functions taking the effect switches as arguments (the
-``fx`` tuple: damping, friction, clip, rotation, bottom_friction, walls) and inlined into
+``fx`` tuple: damping, friction, clip, rotation, bottom_friction, walls, and the integrator's
+prediction, which also switches the damping window) and inlined into
 ``advance``, a closure over nothing but those booleans: they are compile-time constants there,
 so a disabled effect is compiled out, and numba's disk cache can serve the kernels to later
 processes (closures that capture other jitted functions get a new cache key in every process).
@@ -51,12 +52,14 @@ OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED = 0, 1, 2, 3
 
 
 class StepOptions(NamedTuple):
-    """Compile-time switches of one scene (hashable). ``walls``: Couette rings are present."""
+    """Compile-time switches of one scene (hashable). ``walls``: Couette rings are present.
+    The integrator ([time] integrator) sets ``predict`` and ``law.window`` together."""
 
     law: LawOptions = LawOptions()
     rotation: bool = True
     bottom_friction: bool = True
     walls: bool = True
+    predict: bool = True  # velocity-dependent forces use v + dt/2 a (else the half-step v)
 
 
 class Stepper(NamedTuple):
@@ -70,7 +73,7 @@ class Stepper(NamedTuple):
 @nb.njit(**INLINE)
 def forces(ps, pairs, n_loc, prm, t, reach, fx):
     """Pair contacts in canonical order, then flat ring contacts -> ps.f, ps.tau, springs."""
-    damping, friction, clip, rotation, _, walls = fx
+    damping, friction, clip, rotation, _, walls, window = fx
     # Names here must not repeat those inside the inlined kernels (see jit.py).
     x, v, spin, a, f, tau, xi = ps.x, ps.v_pred, ps.w_pred, ps.radius, ps.f, ps.tau, pairs.xi
     for k in range(n_loc):
@@ -86,7 +89,7 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx):
         wj = spin[j] if rotation else 0.0
         active, fxk, fyk, ti, tj, xix, xiy = pair_force(
             x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], a[i], a[j], v[i, 0] - v[j, 0],
-            v[i, 1] - v[j, 1], wi, wj, xix, xiy, reach, prm, damping, friction, clip)
+            v[i, 1] - v[j, 1], wi, wj, xix, xiy, reach, prm, damping, friction, clip, window)
         if friction:
             xi[k, 0] = xix  # a pair that does not touch comes back with xi = 0
             xi[k, 1] = xiy
@@ -105,9 +108,9 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx):
 @nb.njit(**INLINE)
 def flat_ring_contacts(ps, pairs, prm, t, reach, fx):
     """Contacts of candidate free particles with the two ring surfaces (infinitely massive)."""
-    damping, friction, clip, rotation, _, _ = fx
+    damping, friction, clip, rotation, _, _, window = fx
     r_o, r_o_dot = outer_radius(t, prm)
-    lim = reach if damping else 0.0
+    lim = reach if damping and window else 0.0
     for q in range(pairs.wall_count[0]):
         i = pairs.wall[q]
         rx, ry = ps.x[i, 0], ps.x[i, 1]
@@ -129,7 +132,7 @@ def flat_ring_contacts(ps, pairs, prm, t, reach, fx):
         xiy = ps.xi_wall[i, 1] if friction else 0.0
         fn, ftx, fty, xix, xiy, _ = contact_law(
             nx, ny, delta, ps.v_pred[i, 0] - vjx + s * ny, ps.v_pred[i, 1] - vjy - s * nx,
-            xix, xiy, prm, damping, friction, clip)
+            xix, xiy, prm, damping, friction, clip, window)
         if friction:
             ps.xi_wall[i, 0] = xix
             ps.xi_wall[i, 1] = xiy
@@ -169,7 +172,7 @@ def drift(ps, clock, prm, fx):
     """Move free bodies and walls to t + dt. Returns ``(bad, disp, v2)``: the index of a
     particle that became non-finite or left the cell (-1: none), the largest displacement since
     the neighbour build plus the ring's, and the largest squared speed (m^2/s^2)."""
-    rotation, walls = fx[3], fx[5]
+    rotation, walls, predict = fx[3], fx[5], fx[6]
     dt = prm.dt
     h = 0.5 * dt
     n_move = clock.n_move[0]
@@ -188,14 +191,18 @@ def drift(ps, clock, prm, fx):
         x1 = ps.x[i, 1] + dt * ps.v[i, 1]
         ps.x[i, 0] = x0
         ps.x[i, 1] = x1
-        vpx = ps.v[i, 0] + h * ps.f[i, 0] * ps.inv_mass[i]
-        vpy = ps.v[i, 1] + h * ps.f[i, 1] * ps.inv_mass[i]
+        if predict:
+            vpx = ps.v[i, 0] + h * ps.f[i, 0] * ps.inv_mass[i]
+            vpy = ps.v[i, 1] + h * ps.f[i, 1] * ps.inv_mass[i]
+        else:
+            vpx = ps.v[i, 0]
+            vpy = ps.v[i, 1]
         ps.v_pred[i, 0] = vpx
         ps.v_pred[i, 1] = vpy
         max_v2 = max(max_v2, vpx * vpx + vpy * vpy)
         if rotation:
             ps.theta[i] += dt * ps.omega[i]
-            ps.w_pred[i] = ps.omega[i] + h * ps.tau[i] * ps.inv_inertia[i]
+            ps.w_pred[i] = ps.omega[i] + (h * ps.tau[i] * ps.inv_inertia[i] if predict else 0.0)
         r2 = x0 * x0 + x1 * x1
         if not (lo2 <= r2 <= hi2):  # also catches NaN
             bad = i
@@ -224,7 +231,7 @@ def drift(ps, clock, prm, fx):
 def make_stepper(opts: StepOptions) -> Stepper:
     """Compile (or load from numba's cache) the step loop for one set of effects."""
     fx = (opts.law.damping, opts.law.friction, opts.law.clip, opts.rotation,
-          opts.bottom_friction, opts.walls)
+          opts.bottom_friction, opts.walls, opts.predict)
 
     @nb.njit(**JIT)
     def advance(ps, pairs, clock, prm, halo, target):

@@ -71,7 +71,8 @@ def worker(ckpt: str, steps: int) -> None:
                           "breakdown": run.breakdown()}))
 
 
-def throughput(steps: int, repeats: int, ranks: list[int]) -> None:
+def throughput(steps: int, repeats: int, ranks: list[int]) -> dict[int, float]:
+    """Median flow-particle-steps/s for each rank count (also printed, with every run)."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     mpiexec = Path(sys.executable).parent / "mpiexec"
     medians = {}
@@ -107,6 +108,7 @@ def throughput(steps: int, repeats: int, ranks: list[int]) -> None:
         for p in medians:
             if p > 1:
                 print(f"speed-up on {p} ranks: {medians[p] / medians[1]:.2f}")
+    return medians
 
 
 def startup() -> None:

@@ -58,9 +58,9 @@ def table(runs: list[dict], m: dict[str, dict], info: dict) -> str:
     row("rings with φ_F > φ_σ > φ_ε (0.5 ≤ r̃ ≤ 9)",
         [f"{100 * m[n]['ordering_fraction']:.0f} %" for n in names])
     row("torque 2πh r²σ_rφ, mean over 1 ≤ r̃ ≤ 15 (N m)",
-        [f"{m[n]['shear_torque_mean']:.4f} ± {m[n]['shear_torque_mean_err']:.4f}" for n in names])
+        [f"{m[n]['shear_torque_mean']:.3e} ± {m[n]['shear_torque_mean_err']:.1e}" for n in names])
     row("torque of the inner ring from its contacts (N m)",
-        [f"{m[n]['inner_torque']:.4f} ± {m[n]['inner_torque_err']:.4f}" for n in names])
+        [f"{m[n]['inner_torque']:.3e} ± {m[n]['inner_torque_err']:.1e}" for n in names])
     row("flatness ring by ring (d̃/8): χ²/dof about the mean, within 2 errors",
         [f"{m[n]['shear_torque_chi2']:.2f}, {100 * m[n]['shear_torque_within_2err']:.0f} %"
          for n in names])

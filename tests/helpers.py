@@ -7,6 +7,7 @@ import math
 import numpy as np
 
 from pardem.scene import scene_from_dict
+from pardem.verification import dense_packing  # noqa: F401 (re-exported for the tests)
 
 D_SMALL, M_SMALL = 7.42e-3, 0.275e-3
 D_LARGE, M_LARGE = 8.99e-3, 0.490e-3
@@ -50,18 +51,3 @@ def analytic_collision(m_red: float, k_n: float = K_N, gamma_n: float = GAMMA_N)
     eta = gamma_n / (2 * m_red)
     w = math.sqrt(k_n / m_red - eta**2)
     return math.pi / w, math.exp(-math.pi * eta / w)
-
-
-def dense_packing(nx: int, ny: int, spacing_factor: float = 0.995, speed: float = 0.05,
-                  seed: int = 0):
-    """Triangular patch of small disks, slightly compressed, with random velocities and spins."""
-    rng = np.random.default_rng(seed)
-    s = D_SMALL * spacing_factor
-    out = []
-    for j in range(ny):
-        for i in range(nx):
-            out.append({"x": (i + 0.5 * (j % 2)) * s, "y": j * s * math.sqrt(3) / 2,
-                        "vx": float(rng.normal(0, speed)), "vy": float(rng.normal(0, speed)),
-                        "omega": float(rng.normal(0, 5.0)), "diameter": D_SMALL,
-                        "mass": M_SMALL})
-    return out

@@ -8,6 +8,7 @@ import pytest
 
 from averaging.collect import from_contacts
 from averaging.sums import COL, N_COLUMNS, accumulate
+from averaging.weights import EXACT, SLICE
 from averaging.weights import weights_table
 
 A_SMALL = 3.71e-3
@@ -40,7 +41,7 @@ def disk_area_between(rho, a, r_lo, r_hi):
     return sum(tanh_sinh(arc, p, q) for p, q in zip(cuts[:-1], cuts[1:]))
 
 
-@pytest.mark.parametrize("weighting", ["slice", "exact"])
+@pytest.mark.parametrize("weighting", ["slice", "exact", "centre", "gaussian"])
 def test_each_particles_weights_sum_to_one(weighting):
     rng = np.random.default_rng(4)
     rho = rng.uniform(0.1, 0.25, 500)
@@ -63,6 +64,31 @@ def test_exact_weights_equal_numerical_integration():
         worst = max(worst, np.abs(w - ref).max())
     print(f"\nexact weights vs tanh-sinh integration: max difference {worst:.2e}")
     assert worst < 1e-10
+
+
+def test_centre_and_gaussian_weights():
+    """centre: all weight in the ring of the centre; gaussian: the normal distribution of width
+    a/2 integrated over each ring (checked by quadrature of the density)."""
+    r0, dr, n = 0.1, A_SMALL / 4, 40
+    rho, a = 0.11234, A_SMALL
+    w = weights_table(np.array([rho]), np.array([a]), r0, dr, n, "centre")[0]
+    k = int((rho - r0) // dr)
+    assert w[k] == 1.0 and w.sum() == 1.0
+    w = weights_table(np.array([rho]), np.array([a]), r0, dr, n, "gaussian")[0]
+    sigma = a / 2
+
+    def pdf(r):
+        return np.exp(-0.5 * ((r - rho) / sigma) ** 2) / (sigma * math.sqrt(2 * math.pi))
+
+    ref = np.array([tanh_sinh(pdf, r0 + j * dr, r0 + (j + 1) * dr) for j in range(n)])
+    # the kernel is cut at 4 sigma, the tails folded into the outermost rings it reaches: that
+    # moves at most the tail mass Phi(-4) = 3.17e-5 (quadrature here, not the code's erfc)
+    tail = tanh_sinh(pdf, rho - 12 * sigma, rho - 4 * sigma)
+    assert tail == pytest.approx(3.167e-5, rel=1e-3)
+    np.testing.assert_allclose(w, ref, rtol=0, atol=tail * 1.001)
+    inner = np.abs(np.arange(n) * dr + r0 + dr / 2 - rho) < 3 * sigma  # well inside the cut
+    np.testing.assert_allclose(w[inner], ref[inner], rtol=0, atol=1e-12)
+    assert np.count_nonzero(w) == int(np.ceil(8 * sigma / dr)) + 1
 
 
 def test_slice_deviates_from_exact_by_order_a_over_r():
@@ -105,7 +131,7 @@ def hex_ring_sums(a, delta, h, k_n, r0, dr, exact):
     smp = from_contacts(x, np.zeros_like(x), np.zeros(cnt), np.full(cnt, a), np.ones(cnt),
                         p, n, np.full(p.size, delta), k_n * delta * n, np.zeros((p.size, 2)), 0.0)
     s = np.zeros((int(0.06 / dr), N_COLUMNS))
-    accumulate(*smp[:-1], h, r0, dr, exact, s)
+    accumulate(*smp[:-1], h, r0, dr, EXACT if exact else SLICE, s)
     return s
 
 
@@ -161,7 +187,7 @@ def test_two_contact_case_by_hand():
                         np.array([a]), np.array([1.0]), np.array([0, 0]), normal,
                         np.array([d1, d2]), force, spring, 0.0)
     s = np.zeros((1, N_COLUMNS))
-    accumulate(*smp[:-1], h, 0.05, 0.1, True, s)
+    accumulate(*smp[:-1], h, 0.05, 0.1, EXACT, s)
     s = dict(zip(COL, s[0]))
     l1, l2 = a - d1 / 2, a - d2 / 2  # lever lengths; l1 = +l1 e_r, l2 = -l2 e_phi
     ft = -k_t * xi1  # tangential force of contact 1, along e_phi
@@ -196,7 +222,7 @@ def test_ring_without_contacts_gives_nan_strain_not_a_crash():
                         np.ones(2), np.array([1, 1]), np.array([[0.0, -1.0], [1.0, 0.0]]),
                         np.full(2, 1e-5), np.zeros((2, 2)), np.zeros((2, 2)), 0.0)
     s = np.zeros((12, N_COLUMNS))
-    accumulate(*smp[:-1], h, 0.095, 0.0035, False, s)
+    accumulate(*smp[:-1], h, 0.095, 0.0035, SLICE, s)
     r = 0.095 + (np.arange(12) + 0.5) * 0.0035
     f = derived(s, r, 0.0035, h)
     lonely = s[:, COL["vol"]] > 0

@@ -5,48 +5,21 @@ import math
 
 import numpy as np
 import pytest
-from helpers import D_LARGE, D_SMALL, M_LARGE, M_SMALL, analytic_collision, couette_scene, \
-    free_scene
+from helpers import D_LARGE, D_SMALL, GAMMA_N, K_N, M_LARGE, M_SMALL, analytic_collision, \
+    couette_scene
 
 from pardem.simulation import Simulation
-
-
-def measure(sim, overlap, rel_speed, max_steps=200_000):
-    """Step until the contact is over; return (contact time, restitution). Contact start and end
-    are the zero crossings of the overlap, linearly interpolated between steps."""
-    dt = sim.dt
-    d_prev, v_in, t_start = overlap(sim), rel_speed(sim), None
-    for k in range(1, max_steps):
-        sim.advance_steps(1)
-        d = overlap(sim)
-        if t_start is None and d > 0 >= d_prev:
-            t_start = (k - 1 + d_prev / (d_prev - d)) * dt
-        elif t_start is not None and d <= 0 < d_prev:
-            t_end = (k - 1 + d_prev / (d_prev - d)) * dt
-            return t_end - t_start, -rel_speed(sim) / v_in
-        d_prev = d
-    raise AssertionError("collision did not finish")
-
-
-def two_disks(d, m, dt, phase=0.0):
-    """Two equal disks approaching head on at 0.1 m/s; ``phase`` (0..1) shifts the moment of
-    first contact by that fraction of a step."""
-    step = analytic_collision(m / 2)[0] / 50 if dt == "auto" else dt  # auto: asserted below
-    gap = 1e-4 + phase * 0.1 * step
-    ps = [{"x": -(d + gap) / 2, "y": 0.0, "vx": 0.05, "diameter": d, "mass": m},
-          {"x": (d + gap) / 2, "y": 0.0, "vx": -0.05, "diameter": d, "mass": m}]
-    sim = Simulation(free_scene(ps, effects={"normal_damping": True}, time={"dt": dt}))
-    return (sim, lambda s: d - (s.ps.x[1, 0] - s.ps.x[0, 0]),
-            lambda s: s.ps.v[0, 0] - s.ps.v[1, 0])
+from pardem.verification import measure, two_disks
 
 
 PHASES = np.arange(8) / 8  # where, between two steps, the contact begins
 
 
-def errors(d, m, dt):
+def errors(d, m, dt, integrator="verlet"):
     """Relative errors of t_c and e_n for each entry phase."""
     tc, e = analytic_collision(m / 2)
-    out = np.array([measure(*two_disks(d, m, dt, p)) for p in PHASES])
+    out = np.array([measure(*two_disks(d, m, dt, p, integrator, K_N, GAMMA_N))
+                    for p in PHASES])
     return out[:, 0] / tc - 1, out[:, 1] / e - 1
 
 
@@ -82,6 +55,20 @@ def test_order_of_convergence_in_dt():
     print(" orders t_c:", np.round(order_t, 2), f" e_n (t_c/100 .. t_c/800): {order_e:.2f}")
     assert min(order_t) > 1.8
     assert order_e > 0.8
+
+
+def test_halfstep_integrator_converges_to_analytic():
+    """The alternative integrator ([time] integrator = "verlet-halfstep": half-step velocities
+    in the damping and spring, no weighting at contact entry/exit) converges to the analytic
+    collision too, its e_n at first order; docs/accuracy.md measures it against the default."""
+    tc, e = analytic_collision(M_SMALL / 2)
+    rows = [(n, *map(lambda a: abs(a).max(), errors(D_SMALL, M_SMALL, tc / n, "verlet-halfstep")))
+            for n in (50, 400, 3200)]
+    print("\n verlet-halfstep: dt=t_c/N  max err t_c  max err e_n")
+    for n, et, ee in rows:
+        print(f"  {n:5d}  {et:9.2e}  {ee:9.2e}")
+    assert rows[-1][1] < 1e-3 and rows[-1][2] < 2e-3
+    assert rows[1][2] < rows[0][2] / 4 and rows[2][2] < rows[1][2] / 4  # at least first order
 
 
 def wall_setup(target: str, dt="auto"):

@@ -8,6 +8,7 @@ import pytest
 from helpers import D_SMALL, M_SMALL, couette_scene, dense_packing, free_scene
 
 from pardem.simulation import Simulation
+from pardem.verification import elastic_gas_energy_error
 
 
 def momenta(sim):
@@ -38,32 +39,11 @@ def test_oblique_frictional_collision_conserves_momenta():
     assert abs(sim.ps.omega[0] - 3.0) > 0.1  # and friction changed their spins
 
 
-def energy_error(dt_factor: float, steps: int, seed: int) -> tuple[float, float]:
-    """Mean and worst relative deviation of the total energy (50 samples) of an elastic gas of
-    250 disks (area fraction 0.6) between two fixed rings, everything dissipative switched off."""
-    g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.09,
-         "compression_time": 0.0, "omega_inner": 0.0}
-    off = {k: False for k in ("normal_damping", "tangential_friction", "rotation",
-                              "bottom_friction")}
-    sim = Simulation(couette_scene(counts=(250, 0), geometry=g, effects=off,
-                                   time={"dt_per_contact": 50 / dt_factor}))
-    rng = np.random.default_rng(seed)
-    sim.ps.v[: sim.n_free] = rng.normal(0.0, 0.1, (sim.n_free, 2))
-    sim.refresh()
-    e0 = sim.total_energy()
-    errs, contacts = [], 0
-    for _ in range(50):
-        sim.advance_steps(steps // 50)
-        errs.append(abs(sim.total_energy() / e0 - 1))
-        contacts += sim.contacts()["ids"].shape[0]
-    assert contacts > 100  # collisions all the time
-    return float(np.mean(errs)), float(np.max(errs))
-
-
 def test_elastic_dense_scene_conserves_energy_second_order():
     """The gas is chaotic, so one halving of dt gives a noisy ratio (2.4 .. 7.5 seen); the order
     is measured over a factor 4 in dt and two seeds, from the mean deviation."""
-    rows = {f: [energy_error(f, int(10_000 / f), seed) for seed in (5, 6)] for f in (1, 0.25)}
+    rows = {f: [elastic_gas_energy_error(50 / f, int(10_000 / f), seed) for seed in (5, 6)]
+            for f in (1, 0.25)}
     mean = {f: np.mean([r[0] for r in rows[f]]) for f in rows}
     worst = max(r[1] for r in rows[1])
     order = math.log(mean[1] / mean[0.25]) / math.log(4)

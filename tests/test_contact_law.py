@@ -10,7 +10,7 @@ from pardem.state import Params
 
 PRM = Params(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, mu_b_g=0.0, r_in=0.0,
              omega_in=0.0, r_out=0.0, r_out0=0.0, t_comp=0.0, skin=1e-3, escape_radius=math.inf)
-FULL = (True, True, False)  # damping, friction, clip
+FULL = (True, True, False, True)  # damping, friction, clip, window
 
 
 def make_law(flags=FULL, jitted=True):
@@ -87,11 +87,11 @@ def test_swapping_i_and_j_negates_the_force_bitwise():
 
 
 def test_disabled_terms_vanish():
-    plain = make_law((False, False, False))
+    plain = make_law((False, False, False, True))
     fn, ftx, fty, xix, xiy, _ = plain(1.0, 0.0, 1e-3, -0.1, 0.17, 0.0, 0.5, PRM)
     assert fn == pytest.approx(0.3521, rel=1e-14)
     assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.5)
-    clip = make_law((True, False, True))
+    clip = make_law((True, False, True, True))
     # separating fast: damping would make the force attractive; clipping sets it to zero
     assert clip(1.0, 0.0, 1e-5, 1.0, 0.0, 0.0, 0.0, PRM)[0] == 0.0
 
@@ -136,7 +136,7 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
         r = pair_force(ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1], ps.radius[i],
                        ps.radius[j], ps.v_pred[i, 0] - ps.v_pred[j, 0],
                        ps.v_pred[i, 1] - ps.v_pred[j, 1], ps.w_pred[i], ps.w_pred[j], xix, xiy,
-                       sim.clock.reach[0], sim.prm, True, friction, False)
+                       sim.clock.reach[0], sim.prm, True, friction, False, True)
         if r[0]:
             f[i] += r[1:3]
             f[j] -= r[1:3]

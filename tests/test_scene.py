@@ -113,6 +113,8 @@ BAD_COUETTE = [
     ("output.checkpoint_interval", -1.0, r"[output] checkpoint_interval"),
     ("output.contacts", "yes", r"[output] contacts"),
     ("neighbors.skin", 0.0, r"[neighbors] skin = 0.0: must be > 0"),
+    ("time.integrator", "gear", r"[time] integrator = 'gear': must be one of 'verlet', "
+                                r"'verlet-halfstep'"),
     ("neighbors.skin", "big", r"[neighbors] skin"),
     ("averaging.start", -1.0, r"[averaging] start"),
     ("averaging.sample_interval", 0.0, r"[averaging] sample_interval"),

@@ -110,6 +110,6 @@ def test_contact_law_with_zero_tangential_velocity_and_zero_spring(mu, compiled)
                  omega_in=0.0, r_out=0.0, r_out0=0.0, t_comp=0.0, skin=7e-4,
                  escape_radius=math.inf)
     fn, ftx, fty, xix, xiy, sliding = law(1.0, 0.0, 1e-4, -0.1, 0.0, 0.0, 0.0, prm,
-                                         True, True, False)
+                                         True, True, False, True)
     assert fn == K_N * 1e-4 + GAMMA_N * 0.1
     assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.0) and not sliding

@@ -1,0 +1,95 @@
+"""Reference experiments shared by the tests and the accuracy study (run_scripts/accuracy_study.py).
+
+Stage: verification. ``two_disks`` sets up the head-on collision of SPEC §3 and ``measure``
+times it: contact start and end are the zero crossings of the overlap, linearly interpolated
+between steps, and the restitution is the ratio of the separation and approach speeds.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from .scene import scene_from_dict
+from .simulation import Simulation
+from .timestep import contact_time
+
+D_S, M_S = 7.42e-3, 0.275e-3  # the paper's small disks (m, kg)
+
+
+def two_disks(d: float, m: float, dt, phase: float = 0.0, integrator: str = "verlet",
+              k_n: float = 352.1, gamma_n: float = 0.19):
+    """Two equal disks (diameter d m, mass m kg) approaching head on at 0.1 m/s, damping only;
+    ``phase`` (0..1) shifts the moment of first contact by that fraction of a step of t_c/50
+    (or of ``dt``, s). Returns ``(sim, overlap(sim), approach_speed(sim))``."""
+    step = contact_time(k_n, gamma_n, m / 2) / 50 if dt == "auto" else dt
+    gap = 1e-4 + phase * 0.1 * step
+    no = {"normal_damping": True, "tangential_friction": False, "rotation": False,
+          "bottom_friction": False, "clip_attractive_normal": False}
+    ps = [{"x": -(d + gap) / 2, "y": 0.0, "vx": 0.05, "diameter": d, "mass": m},
+          {"x": (d + gap) / 2, "y": 0.0, "vx": -0.05, "diameter": d, "mass": m}]
+    sim = Simulation(scene_from_dict({
+        "scene": {"name": "two-disks", "kind": "free", "seed": 1}, "particles": ps,
+        "effects": no, "contact": {"k_n": k_n, "gamma_n": gamma_n, "k_t": 0.0, "mu": 0.0},
+        "time": {"dt": dt, "end": 1.0, "integrator": integrator}}))
+    return (sim, lambda s: d - (s.ps.x[1, 0] - s.ps.x[0, 0]),
+            lambda s: s.ps.v[0, 0] - s.ps.v[1, 0])
+
+
+def measure(sim, overlap, rel_speed, max_steps: int = 200_000) -> tuple[float, float]:
+    """Step until the contact is over; return (contact time s, restitution)."""
+    dt = sim.dt
+    d_prev, v_in, t_start = overlap(sim), rel_speed(sim), None
+    for k in range(1, max_steps):
+        sim.advance_steps(1)
+        d = overlap(sim)
+        if t_start is None and d > 0 >= d_prev:
+            t_start = (k - 1 + d_prev / (d_prev - d)) * dt
+        elif t_start is not None and d <= 0 < d_prev:
+            t_end = (k - 1 + d_prev / (d_prev - d)) * dt
+            return t_end - t_start, -rel_speed(sim) / v_in
+        d_prev = d
+    raise RuntimeError("collision did not finish")
+
+
+def dense_packing(nx: int, ny: int, spacing_factor: float = 0.995, speed: float = 0.05,
+                  seed: int = 0):
+    """Triangular patch of small disks, slightly compressed, with random velocities and spins."""
+    rng = np.random.default_rng(seed)
+    s = D_S * spacing_factor
+    out = []
+    for j in range(ny):
+        for i in range(nx):
+            out.append({"x": (i + 0.5 * (j % 2)) * s, "y": j * s * math.sqrt(3) / 2,
+                        "vx": float(rng.normal(0, speed)), "vy": float(rng.normal(0, speed)),
+                        "omega": float(rng.normal(0, 5.0)), "diameter": D_S,
+                        "mass": M_S})
+    return out
+
+
+def elastic_gas_energy_error(dt_per_contact: float, steps: int, seed: int,
+                             integrator: str = "verlet") -> tuple[float, float]:
+    """Mean and worst relative deviation of the total energy (50 samples over ``steps``) of an
+    elastic gas of 250 disks (area fraction 0.6) between two fixed rings, every dissipative
+    effect switched off, dt = t_c / dt_per_contact."""
+    g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.09,
+         "compression_time": 0.0, "omega_inner": 0.0}
+    off = {k: False for k in ("normal_damping", "tangential_friction", "rotation",
+                              "bottom_friction")}
+    sim = Simulation(scene_from_dict({
+        "scene": {"name": "elastic-gas", "kind": "couette", "seed": 3}, "geometry": g,
+        "species": [{"name": "small", "diameter": D_S, "mass": M_S, "count": 250}],
+        "effects": off, "time": {"dt_per_contact": dt_per_contact, "integrator": integrator}}))
+    rng = np.random.default_rng(seed)
+    sim.ps.v[: sim.n_free] = rng.normal(0.0, 0.1, (sim.n_free, 2))
+    sim.refresh()
+    e0 = sim.total_energy()
+    errs, contacts = [], 0
+    for _ in range(50):
+        sim.advance_steps(steps // 50)
+        errs.append(abs(sim.total_energy() / e0 - 1))
+        contacts += sim.contacts()["ids"].shape[0]
+    if contacts <= 100:
+        raise RuntimeError("the gas had too few collisions to test anything")
+    return float(np.mean(errs)), float(np.max(errs))

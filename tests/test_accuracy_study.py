@@ -1,0 +1,28 @@
+"""The accuracy study's short version (tiny inputs, about half a minute), so the script behind
+docs/accuracy.md cannot rot: every section runs and writes finite numbers and its plots."""
+
+import re
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).parent.parent
+
+
+def test_quick_accuracy_study_writes_every_section(tmp_path):
+    sys.path.insert(0, str(ROOT / "run_scripts"))
+    import accuracy_study
+
+    assert accuracy_study.main(["--quick", "--run", str(tmp_path / "none"),
+                                "--out", str(tmp_path)]) == 0
+    text = (tmp_path / "accuracy.md").read_text()
+    for title in ("## 0. Defaults and why", "## 1. Time step and integrator",
+                  "## 3. Neighbour skin", "## 4. Ring averaging", "## 5. Sampling interval"):
+        assert title in text
+    for png in ("time_step.png", "averaging.png", "sampling.png"):
+        assert (tmp_path / "accuracy" / png).stat().st_size > 10_000
+    rows = [line for line in text.splitlines() if line.startswith("| verlet")]
+    assert len(rows) == 4
+    for row in rows:  # error and cost columns are numbers
+        cells = [c.strip() for c in row.strip("|").split("|")]
+        assert all(re.fullmatch(r"[0-9.e+-]+", c) for c in cells[2:5] + cells[7:])
+    assert (tmp_path / "accuracy" / "results.json").exists()
