@@ -111,17 +111,24 @@ def orientation(runs, out):
     return _save(fig, out, "fig_1_4_orientation.png")
 
 
+def _markers(ax, runs, xy, ms=3.0):
+    """Open markers of every run, at the points xy(run) -> (x, y)."""
+    for k, run in enumerate(runs):
+        st = _style(run, k)
+        ax.plot(*xy(run), st["marker"], ms=ms, mfc="none", color=st["color"], label=_label(run))
+
+
 def _against_trace(runs, key, ylabel, line_label):
     fig, ax = plt.subplots(figsize=(5.5, 4.5))
-    top = 0.0
-    for k, run in enumerate(runs):
+
+    def xy(run):
         f = run["rings"]
         ok = np.isfinite(f[key]) & (f["tr_F"] > 0)
-        st = _style(run, k)
-        ax.plot(f["tr_F"][ok], f[key][ok], st["marker"], ms=3, color=st["color"],
-                mfc="none", label=_label(run))
-        top = max(top, float(np.nanmax(f["tr_F"][ok])) if ok.any() else 0.0)
-    x = np.linspace(0, top * 1.05 or 1.0, 10)
+        return f["tr_F"][ok], f[key][ok]
+
+    _markers(ax, runs, xy)
+    top = max((float(np.max(xy(r)[0])) for r in runs if xy(r)[0].size), default=0.0)
+    x = np.linspace(0.01 * top, top * 1.05 or 1.0, 50)  # from > 0: log axes in Fig. 1.6
     ax.plot(x, x, "k-", lw=1, label=line_label)
     ax.set(xlabel="tr F", ylabel=ylabel, xlim=(0, x[-1]))
     ax.legend(fontsize=8)
@@ -186,11 +193,8 @@ def couple_stress(runs, out):
 
 def torque_resistance(runs, out):
     fig, ax = plt.subplots(figsize=(6, 4))
-    for k, run in enumerate(runs):
-        f = run["rings"]
-        st = _style(run, k)
-        ax.plot(f["r_tilde"], f["mu_c"] / run["k_n_2d"], st["marker"], ms=2.5, mfc="none",
-                color=st["color"], label=_label(run))
+    _markers(ax, runs, lambda run: (run["rings"]["r_tilde"],
+                                    run["rings"]["mu_c"] / run["k_n_2d"]), ms=2.5)
     ax.set(xlabel="r̃", ylabel="torque resistance μ_c / k'_n = M_zr / (k'_n κ_zr)",
            xlim=(0, 16))
     ax.set_yscale("symlog", linthresh=1e-3)
@@ -200,11 +204,8 @@ def torque_resistance(runs, out):
 
 def fabric_trace(runs, out):
     fig, ax = plt.subplots(figsize=(5, 4.5))
-    for k, run in enumerate(runs):
-        f = run["rings"]
-        st = _style(run, k)
-        ax.plot(f["nu"] * f["C"], f["tr_F"], st["marker"], ms=3, mfc="none", color=st["color"],
-                label=_label(run))
+    _markers(ax, runs, lambda run: (run["rings"]["nu"] * run["rings"]["C"],
+                                    run["rings"]["tr_F"]))
     lim = ax.get_xlim()
     ax.plot(lim, lim, "k-", lw=1, label="tr F = ν C")
     ax.set(xlabel="ν C", ylabel="tr F")

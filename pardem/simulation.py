@@ -214,6 +214,8 @@ class Simulation:
             if root:
                 self.out_dir.mkdir(parents=True, exist_ok=True)
                 write_scene(self.scene, self.out_dir / "scene.toml")
+            self.log(f"run {self.scene.info.name}: t = {self.time:.6g} s to {end:.6g} s, "
+                     f"{self.n_free} particles, dt = {self.dt:.6g} s, {self.decomp.describe()}")
             if self.clock.step[0] % snap_every == 0:
                 self._timed("snapshots", self.write_snapshot)
         rings, avg_steps = self._ring_averager(end_step)
@@ -234,7 +236,8 @@ class Simulation:
             if t1 - t0 > 0 and done > 0:  # aim at ~0.25 s of compiled work per call
                 chunk = int(min(max(done * 0.25 / (t1 - t0), 100), 1_000_000))
             step = int(self.clock.step[0])
-            report = progress and (t1 - last_report > 1.0 or step >= end_step)
+            every = 1.0 if progress else (10.0 if self.out_dir is not None else math.inf)
+            report = t1 - last_report > every or (step >= end_step and every < math.inf)
             chunk, report = self.decomp.bcast((chunk, report))
             if step in avg_set:
                 self._timed("averaging", rings.sample, self)
@@ -245,7 +248,7 @@ class Simulation:
                     self._timed("checkpoints", self.write_checkpoint)
             if report:
                 last_report = t1
-                self._timed("progress", self._report, wall0, step0, end_step)
+                self._timed("progress", self._report, wall0, step0, end_step, progress)
         if self.out_dir is not None:
             if self.clock.step[0] % snap_every:  # the final state, off the snapshot grid
                 self._timed("snapshots", self.write_snapshot)
@@ -253,6 +256,7 @@ class Simulation:
             if rings is not None and rings.samples and root:
                 self._timed("averaging", rings.write, self.out_dir)
         self.rings = rings
+        self.log(self.breakdown())
         if progress and root:
             sys.stderr.write("\n" + self.breakdown() + "\n")
 
@@ -291,7 +295,9 @@ class Simulation:
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
             elif status == BAD_PARTICLE:
                 message = self._bad_particle_message(bad) if bad >= 0 else None
-                raise SimulationError(self.decomp.first_message(message))
+                message = self.decomp.first_message(message)
+                self.log(f"run stopped: {message}")
+                raise SimulationError(message)
             elif status == MPI_FAILED:
                 raise RuntimeError(f"MPI ghost exchange failed on rank {self.decomp.rank} at "
                                    f"step {int(self.clock.step[0])}")
@@ -303,7 +309,7 @@ class Simulation:
         fn(*args)
         self.timers[stage] += time.perf_counter() - t0
 
-    def _report(self, wall0: float, step0: int, end_step: int) -> None:
+    def _report(self, wall0: float, step0: int, end_step: int, progress: bool) -> None:
         e_kin, overlap = self.kinetic_energy(), self.max_overlap()  # collective
         if self.decomp.rank != 0:
             return
@@ -311,11 +317,22 @@ class Simulation:
         elapsed = time.perf_counter() - wall0
         rate = (step - step0) / elapsed if elapsed > 0 else 0.0
         eta = (end_step - step) / rate if rate > 0 else math.inf
-        sys.stderr.write(
-            f"\rt = {self.time:9.3f} / {end_step * self.dt:.3f} s | {rate:9.0f} steps/s | "
-            f"{rate * self.n_free / 1e6:6.2f} M particle-steps/s | ETA {eta:7.1f} s | "
-            f"E_kin {e_kin:.3e} J | max overlap {100 * overlap:.2f}% d ")
-        sys.stderr.flush()
+        line = (f"t = {self.time:9.3f} / {end_step * self.dt:.3f} s | {rate:9.0f} steps/s | "
+                f"{rate * self.n_free / 1e6:6.2f} M particle-steps/s | ETA {eta:7.1f} s | "
+                f"E_kin {e_kin:.3e} J | max overlap {100 * overlap:.2f}% d")
+        self.log(line)
+        if progress:
+            sys.stderr.write("\r" + line + " ")
+            sys.stderr.flush()
+
+    def log(self, text: str) -> None:
+        """Append a time-stamped line to DIR/log.txt (rank 0; opened and closed each time, so
+        a crash loses nothing already logged; a restart appends to the same log)."""
+        if self.out_dir is None or self.decomp.rank != 0:
+            return
+        stamp = time.strftime("%Y-%m-%d %H:%M:%S")
+        with open(self.out_dir / "log.txt", "a") as f:
+            f.write(f"{stamp} {text}\n")
 
     def breakdown(self) -> str:
         total = sum(self.timers.values()) or 1.0

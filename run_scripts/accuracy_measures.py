@@ -100,9 +100,11 @@ def step_cost(ckpt: Path, n_per_contact: float | None = None, skin_d: float | No
 def _retune(sim, n_per_contact, skin_d, integrator):
     from pardem.stepper import make_stepper
 
-    if n_per_contact is not None:
+    if n_per_contact is not None:  # keep the simulated time: time = step * dt
+        t = sim.time
         sim.dt = contact_time(K_N, GAMMA_N, M_S / 2) / n_per_contact
         sim.prm = sim.prm._replace(dt=sim.dt)
+        sim.clock.step[0] = int(round(t / sim.dt))
     if skin_d is not None:
         sim.prm = sim.prm._replace(skin=skin_d * D_S)
     if integrator != "verlet":
@@ -153,7 +155,8 @@ def sampling(run_dir: Path, intervals: list[float]) -> dict:
     v = v / (g.omega_inner * g.inner_radius)
     vol = (2 * math.pi * h * r * (r[1] - r[0]))[bulk].sum()
     tr = (s[:, bulk, cols["stress_rr"]] + s[:, bulk, cols["stress_phiphi"]]).sum(axis=1) / vol
-    out = {"dt": dt, "n": int(v.size), "T": float(v.size * dt)}
+    out = {"dt": dt, "n": int(v.size), "T": float(v.size * dt),
+           "in_situ_cost": logged_averaging_cost(run_dir, v.size)}
     for name, x in (("v_phi", v), ("tr_sigma", tr)):
         tau, rho = autocorrelation_time(x, dt)
         rows = []
@@ -168,6 +171,22 @@ def sampling(run_dir: Path, intervals: list[float]) -> dict:
         out[name] = {"mean": float(x.mean()), "std": float(x.std(ddof=1)), "tau": tau,
                      "rho": rho[:min(rho.size, int(20 / dt))], "rows": rows}
     return out
+
+
+def logged_averaging_cost(run_dir: Path, samples: int):
+    """(s per sample, share of the run) from the stage breakdown in the run's log.txt, or None
+    for a run without a log."""
+    log = run_dir / "log.txt"
+    if not log.exists():
+        return None
+    stages = {}
+    for line in log.read_text().splitlines():
+        parts = line.split()
+        if len(parts) >= 4 and parts[-1] == "%" and parts[-3] == "s":
+            stages[" ".join(parts[:-4])] = float(parts[-4])
+    if "averaging" not in stages:
+        return None
+    return stages["averaging"] / samples, stages["averaging"] / sum(stages.values())
 
 
 def autocorrelation_time(x: np.ndarray, dt: float) -> tuple[float, np.ndarray]:

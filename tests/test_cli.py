@@ -32,6 +32,10 @@ def test_run_writes_snapshots_checkpoint_and_resolved_scene(tmp_path, capsys):
         assert h5.attrs["time"] == pytest.approx(scene.time.end, abs=1e-3)
     # the collision happened: velocities reversed and reduced by e_n ~ 0.22
     assert snaps[-1]["velocity"][0, 0] < 0 < snaps[-1]["velocity"][1, 0]
+    log = (tmp_path / "log.txt").read_text().splitlines()
+    assert f"run {scene.info.name}: t = 0 s to {scene.time.end:g} s, 2 particles" in log[0]
+    assert any("steps/s" in line and "max overlap" in line for line in log)
+    assert any("time per stage" in line for line in log) and "forces+integration" in log[-6]
 
 
 def test_snapshot_contacts_balance_particle_forces(tmp_path):

@@ -82,6 +82,7 @@ def test_watchdog_names_the_particle_and_keeps_the_last_checkpoint(tmp_path, poi
     assert "the last checkpoint is kept" in msg
     t_bad = float(msg.split("invalid at t = ")[1].split(" s")[0])
     assert 0.1 < t_bad < 0.1 + 0.01  # caught within the first steps
+    assert f"run stopped: particle id {gid}" in (tmp_path / "log.txt").read_text()
     # the checkpoint on disk is the last one before the failure, and a valid state
     with h5py.File(tmp_path / "checkpoint.h5") as h5:
         assert 0.099 < h5.attrs["time"] < t_bad
