@@ -13,8 +13,8 @@ Stage: averaging output. ``make_figures(runs, out_dir)`` takes runs loaded by
     fig_1_7_spin.png               omega and W_rphi (B), W_rphi of the fit; inset excess spin
     fig_1_8_couple_stress.png      M_zr/d~^2 and kappa_zr/d~^2 (B)
     fig_1_9_torque_resistance.png  mu_c/k'_n
-    check_fabric_trace.png         tr F against nu C
-    check_torque_balance.png       2 pi h r^2 sigma_rphi per ring and the inner-ring torque
+    check_fabric_trace.png         tr F against nu C (C: contacts per particle)
+    check_torque_balance.png       2 pi h r^2 sigma_phir per ring and the inner-ring torque
 """
 
 from __future__ import annotations
@@ -204,11 +204,11 @@ def torque_resistance(runs, out):
 
 def fabric_trace(runs, out):
     fig, ax = plt.subplots(figsize=(5, 4.5))
-    _markers(ax, runs, lambda run: (run["rings"]["nu"] * run["rings"]["C"],
+    _markers(ax, runs, lambda run: (run["rings"]["nu"] * run["rings"]["C_number"],
                                     run["rings"]["tr_F"]))
     lim = ax.get_xlim()
     ax.plot(lim, lim, "k-", lw=1, label="tr F = ν C")
-    ax.set(xlabel="ν C", ylabel="tr F")
+    ax.set(xlabel="ν C (C: contacts per particle)", ylabel="tr F")
     ax.legend(fontsize=8)
     return _save(fig, out, "check_fabric_trace.png")
 
@@ -219,7 +219,7 @@ def torque_balance(runs, out):
         f = run["rings"]
         st = _style(run, k)
         _errorbar(ax, f["r_tilde"], f["shear_torque"], f.get("shear_torque_err"), run, k,
-                  label=f"{run['name']}: 2π h r² σ_rφ")
+                  label=f"{run['name']}: 2π h r² σ_φr")
         t, e = float(f["inner_torque"]), float(f.get("inner_torque_err", np.nan))
         ax.axhspan(t - e, t + e, color=st["color"], alpha=0.25, lw=0)
         ax.axhline(t, color=st["color"], lw=1,

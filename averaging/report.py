@@ -8,13 +8,14 @@ table. Regions are in r~ = (r - R_i)/d~:
 - dilation: nu_bulk = mean nu over 10 <= r~ <= 15 (the frozen outer packing, paper §1.4.1);
   deficit = nu_bulk - mean nu over 1 <= r~ <= 4; width = the r~ where nu, smoothed over one d~,
   first comes within 0.01 of nu_bulk (outside the first layer, r~ > 1).
-- trF_over_nuC: mean of tr F/(nu C) over all rings with contacts (C volume-weighted, as
-  summed here; the paper's "with reasonable accuracy" uses a number-weighted C).
+- trF_over_nuC: mean and RMS deviation from 1 of tr F/(nu C_number) over the rings with
+  contacts, C_number the contacts per particle (number-weighted, the paper's C; with the
+  volume-weighted C of the sums, tr F = nu C is an identity).
 - stiffness_excess: mean over the rings of (2 pi E/k'_n)/tr F - 1 in 1 <= r~ <= 15 (the
   paper: "the mean-field value underestimates the simulation data by some per cent").
 - orientation: the angles of F, sigma, eps averaged over the inner ten layers (0.5 <= r~ <= 9)
   and the fraction of those rings where phi_F > phi_sigma > phi_eps (paper Fig. 1.4).
-- torque balance: T(r) = 2 pi h r^2 sigma_rphi over 1 <= r~ <= 15. Its mean and the error of
+- torque balance: T(r) = 2 pi h r^2 sigma_phir over 1 <= r~ <= 15. Its mean and the error of
   that mean come from the per-sample sums (T averaged over the zone in every sample, then
   block errors over time: neighbouring rings share particles, so ring errors are not
   independent). Flatness is judged twice: ring by ring (d~/8) and in windows of one d~ (the
@@ -35,7 +36,7 @@ import numpy as np
 
 from pardem.scene import load_scene
 
-from .rings import ERROR_BLOCKS, read_rings
+from .rings import ERROR_BLOCKS, block_error, read_rings
 
 PAPER = {"A": {"v0": 0.670, "s": 1.662, "nu_bar": 0.8084},
          "B": {"v0": 0.756, "s": 1.584, "nu_bar": 0.8149},
@@ -61,7 +62,8 @@ def load_run(run_dir: str | Path) -> dict:
     scene_file = run_dir / "scene.toml"
     scene = load_scene(scene_file if scene_file.exists() else run_dir.parent / "scene.toml")
     c, g = scene.contact, scene.geometry
-    d_ref = (rings["r"][1] - rings["r"][0]) / (rings["r_tilde"][1] - rings["r_tilde"][0])
+    d_ref = rings.get("reference_diameter",
+                      (rings["r"][1] - rings["r"][0]) / (rings["r_tilde"][1] - rings["r_tilde"][0]))
     name = scene.info.name.rsplit("-", 1)[-1]
     return {"dir": run_dir, "name": name, "label": scene.info.name, "rings": rings,
             "k_n_2d": c.k_n / c.height, "height": c.height, "d_ref": d_ref,
@@ -92,8 +94,10 @@ def metrics(run: dict) -> dict:
     smooth = np.convolve(f["nu"], np.ones(per_d) / per_d, mode="same")
     recovered = np.flatnonzero((f["r_tilde"] > 1) & (smooth >= bulk - 0.01))
     out["dilation_width"] = float(f["r_tilde"][recovered[0]]) if recovered.size else math.nan
-    has = f["C"] > 0
-    out["trF_over_nuC"] = _mean(f["tr_F"][has] / (f["nu"][has] * f["C"][has]))
+    has = f["C_number"] > 0
+    ratio = f["tr_F"][has] / (f["nu"][has] * f["C_number"][has])
+    out["trF_over_nuC"] = _mean(ratio)
+    out["trF_over_nuC_rms"] = _mean((ratio - 1) ** 2) ** 0.5
     zone = _region(f, 1, 15) & (f["tr_F"] > 0)
     out["stiffness_excess"] = _mean(f["stiffness"][zone] / f["tr_F"][zone] - 1)
     inner = _region(f, 0.5, 9)
@@ -119,19 +123,20 @@ def metrics(run: dict) -> dict:
 
 
 def ring_torques(run: dict) -> np.ndarray:
-    """T = 2 pi h r^2 sigma_rphi (N m) of every sample and ring [samples, rings], from the raw
-    sums (sigma_rphi = stress_rphi / V with V = 2 pi h r dr)."""
+    """T = 2 pi h r^2 sigma_phir (N m) of every sample and ring [samples, rings], from the raw
+    sums (sigma_phir = stress_phir / V with V = 2 pi h r dr), as RingAverager's shear_torque."""
     f = run["rings"]
-    col = f["columns"].index("stress_rphi")
+    col = f["columns"].index("stress_phir")
     dr = f["r"][1] - f["r"][0]
     return f["sums"][:, :, col] * f["r"] / dr
 
 
-def block_mean(series: np.ndarray, blocks: int = ERROR_BLOCKS):
-    """Mean over the samples (axis 0) and its standard error from consecutive blocks, as
-    RingAverager.fields does for every field."""
-    parts = np.array([b.mean(axis=0) for b in np.array_split(series, blocks)])
-    return series.mean(axis=0), parts.std(axis=0, ddof=1) / np.sqrt(len(parts))
+def block_mean(series: np.ndarray):
+    """Mean over the samples (axis 0) and its standard error from the same consecutive blocks
+    as RingAverager.fields uses for every field."""
+    parts = np.array([b.mean(axis=0) for b in
+                      np.array_split(series, min(ERROR_BLOCKS, len(series)))])
+    return series.mean(axis=0), block_error(parts)
 
 
 def _step(f: dict) -> float:

@@ -9,7 +9,9 @@ rings.vtu (the annulus mesh for ParaView, see ``mesh.py``) atomically (rank 0);
 
 Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
     r (m) ring centre; r_tilde = (r - R_i)/d_ref (d_ref: [averaging] reference_diameter)
-    nu = vol/V; v_r, v_phi (m/s) = mom/vol; omega (rad/s) = spin/vol; C = coord/vol
+    nu = vol/V; v_r, v_phi (m/s) = mom/vol; omega (rad/s) = spin/vol; C = coord/vol (volume-
+    weighted contact number: tr F = nu C exactly); C_number = contacts/count (contacts per
+    particle, number-weighted: the paper's C in tr F ~ nu C)
     F_ab = fabric/V; sigma_ab (N/m^2) = stress/V
     eps_ab = (pi h/V) deform . A with A = F^-1 (NaN where F is singular)
     M_zr, M_zphi (N/m) = couple/V; kappa_zr, kappa_zphi (m) = (pi h/V) curv . A (the
@@ -21,7 +23,10 @@ Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
     (pi/k'_n) dev sigma / dev eps; mu_c = M_zr / kappa_zr (N/m^2); k'_n = k_n/h
     v_phi_norm = v_phi/(Omega R_i); fit_v0, fit_s: v_phi_norm = v0 exp(-r_tilde/s) fitted
     over r_tilde in [0.25, 8.1] (scalars, in rings.h5 only)
-    shear_torque (N m) = 2 pi h r^2 sigma_rphi, the torque passed outwards through the ring;
+    shear_torque (N m) = 2 pi h r^2 sigma_phir, the torque passed outwards through the ring
+    (sigma_phir: force along e_phi across a surface normal to e_r, the tangential traction on a
+    circle; sigma_rphi differs by the spin acceleration and equals it on time average: within
+    0.2 % in the paper's runs);
     inner_torque (N m, scalar): the torque of the inner ring on the particles, from its
     contacts, averaged over the samples (steady state: shear_torque = inner_torque in every
     ring; per-sample values in rings.h5/inner_torque)
@@ -44,7 +49,7 @@ from .weights import WEIGHTINGS
 TENSORS = ("F", "sigma", "eps")
 ERROR_BLOCKS = 8  # consecutive blocks of samples for the standard errors
 FIELD_UNITS = {"r": "m", "r_tilde": "1", "nu": "1", "v_r": "m/s", "v_phi": "m/s",
-               "omega": "rad/s", "C": "1", "M_zr": "N/m", "M_zphi": "N/m",
+               "omega": "rad/s", "C": "1", "C_number": "1", "M_zr": "N/m", "M_zphi": "N/m",
                "kappa_zr": "m", "kappa_zphi": "m"}
 FIELD_UNITS.update({"tr_F": "1", "dev_F": "1", "angle_F": "deg", "tr_sigma": "N/m^2",
                     "dev_sigma": "N/m^2", "angle_sigma": "deg", "tr_eps": "1", "dev_eps": "1",
@@ -126,7 +131,8 @@ class RingAverager:
         with h5py.File(tmp, "w") as h5:
             h5.attrs.update({"format": "pardem-rings", "ring_width": self.dr,
                              "inner_radius": self.r_in, "weighting": self.weighting,
-                             "height": self.height, "n_samples": len(self.samples)})
+                             "height": self.height, "n_samples": len(self.samples),
+                             "reference_diameter": self.d_ref})
             for key, value in f.items():
                 h5.create_dataset(f"fields/{key}", data=value)
                 h5[f"fields/{key}"].attrs["unit"] = FIELD_UNITS.get(key.removesuffix("_err"), "")
@@ -168,7 +174,8 @@ def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarr
         vol = s[:, COL["vol"]]
         out = {"nu": vol / vol_ring, "v_r": s[:, COL["mom_r"]] / vol,
                "v_phi": s[:, COL["mom_phi"]] / vol, "omega": s[:, COL["spin"]] / vol,
-               "C": s[:, COL["coord"]] / vol}
+               "C": s[:, COL["coord"]] / vol,
+               "C_number": s[:, COL["contacts"]] / s[:, COL["count"]]}
         fabric = _tensor(s, "fabric") / vol_ring[:, None, None]
         inv = _inverse(fabric)
         sigma = _tensor(s, "stress") / vol_ring[:, None, None]
@@ -194,7 +201,7 @@ def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarr
         out["shear_resistance"] = math.pi / k_n_2d * out["dev_sigma"] / out["dev_eps"]
         out["mu_c"] = out["M_zr"] / out["kappa_zr"]
         out["v_phi_norm"] = out["v_phi"] / wall_speed
-        out["shear_torque"] = 2.0 * math.pi * h * r * r * out["sigma_rphi"]
+        out["shear_torque"] = 2.0 * math.pi * h * r * r * out["sigma_phir"]
     if r_tilde is not None:
         v0, decay = exponential_fit(r_tilde, out["v_phi_norm"])
         out["fit_v0"], out["fit_s"] = np.array(v0), np.array(decay)
@@ -248,6 +255,9 @@ def read_rings(run_dir: str | Path) -> dict[str, np.ndarray]:
         out = {k: v[()] for k, v in h5["fields"].items()}
         out["times"] = h5["times"][()]
         out["sums"] = h5["sums"][()]
-        out["inner_torque_samples"] = h5["inner_torque"][()]
+        if "inner_torque" in h5:  # files written before the torque was recorded lack it
+            out["inner_torque_samples"] = h5["inner_torque"][()]
+        if "reference_diameter" in h5.attrs:
+            out["reference_diameter"] = float(h5.attrs["reference_diameter"])
         out["columns"] = tuple(h5["sums"].attrs["columns"].split(","))
     return out

@@ -22,6 +22,8 @@ normal pointing from the partner to the particle; f the force on the particle; D
     deform_..          -Sum w Sum_c Delta (x) l        m^2
     couple_r, _phi     -Sum w Sum_c (l x f) l          N m^2
     curv_r, _phi       -Sum w Sum_c (l x Delta) l      m^3
+    contacts           Sum w C^p                       (contacts; C^p / count is the
+                                                       number-weighted mean contact number)
 
 The minus signs make compression positive (SPEC §4): with f the force on the particle, -f is
 the force the particle exerts on its partner, and -f (x) l is positive for a compressed contact.
@@ -40,12 +42,12 @@ COLUMNS = ("vol", "count", "mass", "mom_r", "mom_phi", "spin", "coord",
            "fabric_rr", "fabric_rphi", "fabric_phir", "fabric_phiphi",
            "stress_rr", "stress_rphi", "stress_phir", "stress_phiphi",
            "deform_rr", "deform_rphi", "deform_phir", "deform_phiphi",
-           "couple_r", "couple_phi", "curv_r", "curv_phi")
+           "couple_r", "couple_phi", "curv_r", "curv_phi", "contacts")
 COL = {name: k for k, name in enumerate(COLUMNS)}
 N_COLUMNS = len(COLUMNS)
 UNITS = {"vol": "m^3", "count": "1", "mass": "kg", "mom_r": "m^4/s", "mom_phi": "m^4/s",
          "spin": "m^3/s", "coord": "m^3", "couple_r": "N m^2", "couple_phi": "N m^2",
-         "curv_r": "m^3", "curv_phi": "m^3"}
+         "curv_r": "m^3", "curv_phi": "m^3", "contacts": "1"}
 UNITS.update({c: u for prefix, u in (("fabric", "m^3"), ("stress", "N m"), ("deform", "m^2"))
               for c in COLUMNS if c.startswith(prefix)})
 
@@ -77,6 +79,7 @@ def accumulate(x, v, omega, radius, mass, start, cn, cdelta, cf, cxi, height, r0
         q[4] = vol * (-v[p, 0] * ery + v[p, 1] * erx)
         q[5] = vol * omega[p]
         q[6] = vol * (start[p + 1] - start[p])
+        q[23] = start[p + 1] - start[p]
         for c in range(start[p], start[p + 1]):
             nr = cn[c, 0] * erx + cn[c, 1] * ery
             nphi = -cn[c, 0] * ery + cn[c, 1] * erx

@@ -15,7 +15,8 @@ the share of the disk counted inside radius R. Four choices of W:
 
 Both telescope: the weights of one disk sum to 1 exactly when the rings cover it. Area below
 r0 is given to ring 0 and area beyond the last ring to ring n-1, so the sum is always 1 (a
-particle pressed into a ring surface reaches a little past it). Near a tangent line or circle
+particle pressed into a ring surface reaches a little past it), and the last ring a disk
+reaches takes whatever share is left, so rounding can never lose weight. Near a tangent line or circle
 the formulas lose digits (acos near +-1: A(R) came out 1e-10 above pi a^2 for a rim exactly on
 a ring edge), so the cumulative area is kept within [0, pi a^2] and non-decreasing: no weight
 is ever negative, and the sum still telescopes to 1.
@@ -94,7 +95,9 @@ def ring_weights(rho, a, r0, dr, n_rings, kind, rings, weights):
     below = 0.0  # share inside the ring's inner edge (ring 0 also takes what lies below r0)
     m = 0
     for k in range(k_lo, k_hi + 1):
-        outer = 1.0 if k == n_rings - 1 else inside_share(r0 + (k + 1) * dr, rho, a, kind)
+        # the last ring reached takes the rest: the ring index and the share are computed in
+        # different roundings, and a centre on a ring edge must not lose its weight
+        outer = 1.0 if k == k_hi else inside_share(r0 + (k + 1) * dr, rho, a, kind)
         outer = min(max(outer, below), 1.0)
         rings[m] = k
         weights[m] = outer - below

@@ -234,10 +234,13 @@ class Scene:
 
     def fingerprint(self) -> str:
         """sha256 hex of the physics: to_dict() without scene.name, time.end, [output] and
-        [averaging], which may legitimately change on a restart."""
+        [averaging], which may legitimately change on a restart, and without keys added since
+        the first release while they hold their default (time.integrator)."""
         d = self.to_dict()
         d["scene"].pop("name")
         d["time"].pop("end")
+        if d["time"]["integrator"] == "verlet":  # keys added later hash only when not default,
+            d["time"].pop("integrator")          # so older checkpoints stay restartable
         d.pop("output")
         d.pop("averaging", None)
         text = json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)

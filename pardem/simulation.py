@@ -331,6 +331,7 @@ class Simulation:
         if self.out_dir is None or self.decomp.rank != 0:
             return
         stamp = time.strftime("%Y-%m-%d %H:%M:%S")
+        self.out_dir.mkdir(parents=True, exist_ok=True)
         with open(self.out_dir / "log.txt", "a") as f:
             f.write(f"{stamp} {text}\n")
 

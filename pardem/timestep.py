@@ -76,32 +76,43 @@ def smallest_contact_time(scene: Scene) -> float:
 MAX_IMPACT_OVERLAP = 0.25  # of the smallest free-particle diameter
 
 
+def free_disks(scene: Scene) -> list[tuple[float, float]]:
+    """(diameter m, mass kg) of every kind of free disk in the scene."""
+    if scene.particles is not None:
+        return list(zip(np.asarray(scene.particles.diameter, float),
+                        np.asarray(scene.particles.mass, float)))
+    return [(s.diameter, s.mass) for s in scene.species if s.count > 0]
+
+
 def check_wall_speeds(scene: Scene) -> None:
     """SceneError if the inner ring's surface speed or the outer ring's largest compression speed
-    would drive head-on overlaps beyond MAX_IMPACT_OVERLAP of the smallest diameter."""
+    would drive a head-on overlap beyond MAX_IMPACT_OVERLAP of the hit disk's diameter. The
+    overlap at speed v is up to v sqrt(m/k_n) (the undamped spring against an infinitely massive
+    wall), so the heaviest disk for its size decides. An outer ring that starts wider than its
+    final radius needs a compression time (0 would move it at infinite speed)."""
     g = scene.geometry
     if g is None:
         return
-    if scene.particles is not None:
-        m = float(np.min(scene.particles.mass))
-    else:
-        m = min(s.mass for s in scene.species if s.count > 0)
-    w0 = math.sqrt(scene.contact.k_n / m)
-    limit = MAX_IMPACT_OVERLAP * scene.min_free_diameter * w0  # m/s
+    worst = max(math.sqrt(m / scene.contact.k_n) / d for d, m in free_disks(scene))  # s/m
+    limit = MAX_IMPACT_OVERLAP / worst  # m/s
+    gap = g.outer_start_radius - g.outer_radius
+    if gap > 0 and g.compression_time <= 0:
+        raise SceneError(
+            f"[geometry] compression_time = {g.compression_time!r}: the outer ring must move "
+            f"{gap:.4g} m from outer_start_radius to outer_radius; give it a compression time "
+            f"(at least {0.5 * math.pi * gap / limit:.4g} s), or start at the final radius (s)")
     speeds = [("omega_inner", abs(g.omega_inner) * g.inner_radius, "rad/s",
                limit / g.inner_radius, "|omega_inner| <=")]
     if g.compression_time > 0:
-        rate = 0.5 * math.pi * (g.outer_start_radius - g.outer_radius) / g.compression_time
-        speeds.append(("compression_time", rate, "s",
-                       0.5 * math.pi * (g.outer_start_radius - g.outer_radius) / limit,
+        rate = 0.5 * math.pi * gap / g.compression_time
+        speeds.append(("compression_time", rate, "s", 0.5 * math.pi * gap / limit,
                        "compression_time >="))
     for key, v, unit, bound, rule in speeds:
         if v > limit:
-            value = getattr(g, key)
             raise SceneError(
-                f"[geometry] {key} = {value!r}: the ring surface moves at up to {v:.3g} m/s; a "
-                f"disk hit at that speed overlaps it by up to v/sqrt(k_n/m) = "
-                f"{100 * v / w0 / scene.min_free_diameter:.0f} % of its diameter, beyond the "
+                f"[geometry] {key} = {getattr(g, key)!r}: the ring surface moves at up to "
+                f"{v:.3g} m/s; a disk hit at that speed overlaps it by up to v sqrt(m/k_n) = "
+                f"{100 * v * worst:.0f} % of its diameter, beyond the "
                 f"{100 * MAX_IMPACT_OVERLAP:.0f} % the contact model resolves; use {rule} "
                 f"{bound:.4g} {unit}, or a stiffer k_n")
 

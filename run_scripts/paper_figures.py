@@ -49,7 +49,8 @@ def table(runs: list[dict], m: dict[str, dict], info: dict) -> str:
     row("ν bulk (10 ≤ r̃ ≤ 15)", [fmt(m[n]["nu_bulk"]) for n in names])
     row("dilation: ν bulk − ν(1 ≤ r̃ ≤ 4)", [fmt(m[n]["dilation_deficit"]) for n in names])
     row("dilated zone width (r̃)", [fmt(m[n]["dilation_width"], 1) for n in names])
-    row("tr F / (ν C)", [fmt(m[n]["trF_over_nuC"], 6) for n in names])
+    row("tr F / (ν C), C contacts per particle: mean (RMS deviation from 1)",
+        [f"{m[n]['trF_over_nuC']:.3f} ({m[n]['trF_over_nuC_rms']:.3f})" for n in names])
     row("stiffness above mean field, mean of 2πĒ/(k'_n tr F) − 1",
         [f"{100 * m[n]['stiffness_excess']:+.1f} %" for n in names])
     row("angles φ_F, φ_σ, φ_ε (deg, 0.5 ≤ r̃ ≤ 9)",
@@ -57,7 +58,7 @@ def table(runs: list[dict], m: dict[str, dict], info: dict) -> str:
          for n in names])
     row("rings with φ_F > φ_σ > φ_ε (0.5 ≤ r̃ ≤ 9)",
         [f"{100 * m[n]['ordering_fraction']:.0f} %" for n in names])
-    row("torque 2πh r²σ_rφ, mean over 1 ≤ r̃ ≤ 15 (N m)",
+    row("torque 2πh r²σ_φr, mean over 1 ≤ r̃ ≤ 15 (N m)",
         [f"{m[n]['shear_torque_mean']:.3e} ± {m[n]['shear_torque_mean_err']:.1e}" for n in names])
     row("torque of the inner ring from its contacts (N m)",
         [f"{m[n]['inner_torque']:.3e} ± {m[n]['inner_torque_err']:.1e}" for n in names])

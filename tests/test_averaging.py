@@ -167,6 +167,9 @@ def test_regular_packing_gives_the_mean_field_result():
     nu = s[inside, COL["vol"]] / ring_vol[inside]
     coord = s[inside, COL["coord"]] / s[inside, COL["vol"]]
     np.testing.assert_allclose(np.trace(fabric, axis1=1, axis2=2), nu * coord, rtol=1e-12)
+    # equal disks: contacts per particle (number-weighted) = the volume-weighted mean
+    per_particle = s[inside, COL["contacts"]] / s[inside, COL["count"]]
+    np.testing.assert_allclose(per_particle, coord, rtol=1e-12)
     # the bulk of the packing: 6 contacts, nu of the triangular lattice
     bulk = np.abs(coord - 6) < 1e-9
     assert bulk.sum() > 30

@@ -71,7 +71,7 @@ def test_inner_ring_drags_a_shear_band(sheared_b):
 
 def test_ring_averages_show_the_papers_physics(sheared_b):
     """In-situ averages over t = 5 .. 7 s (21 samples): dilation and an exponential v_phi at the
-    inner ring, tr F = nu C, and torque balance: 2 pi h r^2 sigma_rphi is the same in every
+    inner ring, tr F = nu C, and torque balance: 2 pi h r^2 sigma_phir is the same in every
     ring and equals the torque the inner ring exerts on the particles."""
     sim = sheared_b[0]
     f = sim.rings.fields()
@@ -83,17 +83,18 @@ def test_ring_averages_show_the_papers_physics(sheared_b):
     assert 0.3 < f["fit_v0"] < 1.5 and 0.5 < f["fit_s"] < 4.0
     np.testing.assert_allclose(f["tr_F"], f["nu"] * f["C"], rtol=1e-10, atol=1e-12)
     h = sim.scene.contact.height
-    carried = 2 * np.pi * h * f["r"] ** 2 * f["sigma_rphi"]  # N m, per ring
+    carried = 2 * np.pi * h * f["r"] ** 2 * f["sigma_phir"]  # N m, per ring
+    np.testing.assert_allclose(carried, f["shear_torque"], rtol=1e-12)
     zone = (rt > 1) & (rt < 15)
     mean, spread = carried[zone].mean(), carried[zone].std()
     torque = np.array(sim.torques)
     t_mean, t_err = torque.mean(), torque.std(ddof=1) / np.sqrt(torque.size)
-    print(f"\n2 pi h r^2 sigma_rphi over rings 1 < r~ < 15: mean {mean:.4f} N m, ring-to-ring "
-          f"spread {spread:.4f} (per-ring standard error ~{np.median(2 * np.pi * h * f['r'][zone] ** 2 * f['sigma_rphi_err'][zone]):.4f}); "
+    print(f"\n2 pi h r^2 sigma_phir over rings 1 < r~ < 15: mean {mean:.4f} N m, ring-to-ring "
+          f"spread {spread:.4f} (per-ring standard error ~{np.median(f['shear_torque_err'][zone]):.4f}); "
           f"torque on the inner ring {t_mean:.4f} +- {t_err:.4f} N m; v_phi fit v0 = "
           f"{f['fit_v0']:.3f}, s = {f['fit_s']:.3f}")
     assert spread < 0.15 * abs(mean)  # flat across the rings
-    err = 2 * np.pi * h * f["r"][zone] ** 2 * f["sigma_rphi_err"][zone]
+    err = f["shear_torque_err"][zone]
     pulls = (carried[zone] - mean) / err
     print(f"pulls (ring - mean) / block error: median |pull| {np.median(np.abs(pulls)):.2f}, "
           f"max {np.abs(pulls).max():.2f}, fraction within 2 errors "

@@ -297,7 +297,10 @@ def test_fingerprint_sensitivity():
     assert len(base) == 64
     assert scene_from_dict(mutate(couette_dict(), "contact.k_n", 352.2)).fingerprint() != base
     assert scene_from_dict(mutate(couette_dict(), "scene.seed", 3)).fingerprint() != base
+    assert scene_from_dict(mutate(couette_dict(), "time.integrator",
+                                  "verlet-halfstep")).fingerprint() != base
     same = [mutate(couette_dict(), "time.end", 500.0), mutate(couette_dict(), "scene.name", "z"),
+            mutate(couette_dict(), "time.integrator", "verlet"),  # the default: as before the key
             {**couette_dict(), "output": {"snapshot_interval": 0.2, "contacts": False}},
             {**couette_dict(), "averaging": {"start": 1.0, "end": 2.0}}]
     for d in same:

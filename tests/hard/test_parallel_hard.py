@@ -8,7 +8,7 @@ import pytest
 from helpers import couette_scene
 from mpi_helpers import MPI_DIR, assert_same_state, dump_state, run_mpi
 
-from averaging.weights import ring_weights
+from averaging.weights import WEIGHTINGS, ring_weights
 from pardem.scene import write_scene
 from pardem.simulation import Simulation, SimulationError
 
@@ -44,16 +44,21 @@ def test_a_rank_with_an_empty_sector(tmp_path):
 
 
 def test_ring_edges_in_the_averaging():
-    """A disk centre exactly on a ring boundary, and a disk whose rim touches one: weights are
-    finite and sum to 1 for both weightings."""
-    rings = np.zeros(16, np.int64)
-    wts = np.zeros(16)
-    r0, dr, a = 0.1, 0.9275e-3, 3.71e-3
-    for rho in (r0 + 5 * dr, r0 + a, r0 + 3 * dr + a, r0 + 3 * dr - a + 1e-18):
-        for exact in (False, True):
-            m = ring_weights(rho, a, r0, dr, 200, exact, rings, wts)
+    """Disk centres exactly on ring boundaries (every boundary of the paper's 160 rings, and the
+    floats next to them) and disks whose rim touches one: for every weighting the weights are
+    finite, non-negative and sum to 1 (a centre on an edge once lost its whole 'centre'
+    weight: the ring index and the share were rounded differently)."""
+    rings = np.zeros(64, np.int64)
+    wts = np.zeros(64)
+    r0, dr, a = 0.1035, 0.9275e-3, 3.71e-3
+    edges = r0 + np.arange(1, 160) * dr
+    centres = np.concatenate([edges, np.nextafter(edges, 0), np.nextafter(edges, 1),
+                              edges + a, edges - a])
+    for kind in WEIGHTINGS.values():
+        for rho in centres:
+            m = ring_weights(rho, a, r0, dr, 200, kind, rings, wts)
             assert np.all(np.isfinite(wts[:m])) and np.all(wts[:m] >= 0)
-            assert wts[:m].sum() == pytest.approx(1.0, abs=1e-13)
+            assert wts[:m].sum() == pytest.approx(1.0, abs=1e-13), (kind, rho)
 
 
 def small_run(tmp_path):
