@@ -109,7 +109,7 @@ def metrics(run: dict) -> dict:
     per_ring = ring_torques(run)[:, zone]  # samples x rings
     per_window = np.array([w.mean(axis=1) for w in _windows(per_ring, 1.0 / _step(f))]).T
     mean, mean_err = block_mean(per_ring.mean(axis=1))
-    out["shear_torque_mean"], out["shear_torque_mean_err"] = mean, mean_err
+    out["shear_torque_mean"], out["shear_torque_mean_err"] = float(mean), float(mean_err)
     for label, series in (("", per_ring), ("_window", per_window)):
         values, errs = block_mean(series)
         dev = (values - values.mean()) / errs
