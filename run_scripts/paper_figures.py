@@ -32,43 +32,41 @@ def table(runs: list[dict], m: dict[str, dict], info: dict) -> str:
              "of every number in `averaging/report.py`. Figures in `figures/`.", ""]
     lines += ["| | " + " | ".join(names) + " |", "|---|" + "---|" * len(names)]
 
-    def row(label, values):
-        lines.append(f"| {label} | " + " | ".join(values) + " |")
+    def row(label, cell):
+        """One table row: cell(metrics of a run, run name) -> the text of that run's cell."""
+        lines.append(f"| {label} | " + " | ".join(cell(m[n], n) for n in names) + " |")
 
+    by_run = {r["name"]: r for r in runs}
     row("global volume fraction v̄ (ours / paper)",
-        [f"{r['nu_bar']:.4f} / {PAPER.get(r['name'], {}).get('nu_bar', '–')}" for r in runs])
-    row("averaging window (s), samples",
-        [f"{r['window'][0]:.1f}–{r['window'][1]:.1f}, {r['n_samples']}" for r in runs])
-    row("v₀ (ours / paper)", [f"{fmt(m[n]['fit_v0'])} / {PAPER.get(n, {}).get('v0', '–')}"
-                             for n in names])
-    row("decay length s (ours / paper)", [f"{fmt(m[n]['fit_s'])} / {PAPER.get(n, {}).get('s', '–')}"
-                                          for n in names])
-    row("s deviation from the paper", [
-        f"{100 * (m[n]['fit_s'] / PAPER[n]['s'] - 1):+.0f} %" if n in PAPER else "–"
-        for n in names])
-    row("ν bulk (10 ≤ r̃ ≤ 15)", [fmt(m[n]["nu_bulk"]) for n in names])
-    row("dilation: ν bulk − ν(1 ≤ r̃ ≤ 4)", [fmt(m[n]["dilation_deficit"]) for n in names])
-    row("dilated zone width (r̃)", [fmt(m[n]["dilation_width"], 1) for n in names])
+        lambda q, n: f"{by_run[n]['nu_bar']:.4f} / {PAPER.get(n, {}).get('nu_bar', '–')}")
+    row("averaging window (s), samples", lambda q, n: "{:.1f}–{:.1f}, {}".format(
+        *by_run[n]["window"], by_run[n]["n_samples"]))
+    row("v₀ (ours / paper)", lambda q, n: f"{fmt(q['fit_v0'])} / {PAPER.get(n, {}).get('v0', '–')}")
+    row("decay length s (ours / paper)",
+        lambda q, n: f"{fmt(q['fit_s'])} / {PAPER.get(n, {}).get('s', '–')}")
+    row("s deviation from the paper",
+        lambda q, n: f"{100 * (q['fit_s'] / PAPER[n]['s'] - 1):+.0f} %" if n in PAPER else "–")
+    row("ν bulk (10 ≤ r̃ ≤ 15)", lambda q, n: fmt(q["nu_bulk"]))
+    row("dilation: ν bulk − ν(1 ≤ r̃ ≤ 4)", lambda q, n: fmt(q["dilation_deficit"]))
+    row("dilated zone width (r̃)", lambda q, n: fmt(q["dilation_width"], 1))
     row("tr F / (ν C), C contacts per particle: mean (RMS deviation from 1)",
-        [f"{m[n]['trF_over_nuC']:.3f} ({m[n]['trF_over_nuC_rms']:.3f})" for n in names])
+        lambda q, n: f"{q['trF_over_nuC']:.3f} ({q['trF_over_nuC_rms']:.3f})")
     row("stiffness above mean field, mean of 2πĒ/(k'_n tr F) − 1",
-        [f"{100 * m[n]['stiffness_excess']:+.1f} %" for n in names])
+        lambda q, n: f"{100 * q['stiffness_excess']:+.1f} %")
     row("angles φ_F, φ_σ, φ_ε (deg, 0.5 ≤ r̃ ≤ 9)",
-        [f"{m[n]['angle_F']:.1f}, {m[n]['angle_sigma']:.1f}, {m[n]['angle_eps']:.1f}"
-         for n in names])
+        lambda q, n: f"{q['angle_F']:.1f}, {q['angle_sigma']:.1f}, {q['angle_eps']:.1f}")
     row("rings with φ_F > φ_σ > φ_ε (0.5 ≤ r̃ ≤ 9)",
-        [f"{100 * m[n]['ordering_fraction']:.0f} %" for n in names])
+        lambda q, n: f"{100 * q['ordering_fraction']:.0f} %")
     row("torque 2πh r²σ_φr, mean over 1 ≤ r̃ ≤ 15 (N m)",
-        [f"{m[n]['shear_torque_mean']:.3e} ± {m[n]['shear_torque_mean_err']:.1e}" for n in names])
+        lambda q, n: f"{q['shear_torque_mean']:.3e} ± {q['shear_torque_mean_err']:.1e}")
     row("torque of the inner ring from its contacts (N m)",
-        [f"{m[n]['inner_torque']:.3e} ± {m[n]['inner_torque_err']:.1e}" for n in names])
+        lambda q, n: f"{q['inner_torque']:.3e} ± {q['inner_torque_err']:.1e}")
     row("flatness ring by ring (d̃/8): χ²/dof about the mean, within 2 errors",
-        [f"{m[n]['shear_torque_chi2']:.2f}, {100 * m[n]['shear_torque_within_2err']:.0f} %"
-         for n in names])
+        lambda q, n: f"{q['shear_torque_chi2']:.2f}, {100 * q['shear_torque_within_2err']:.0f} %")
     row("flatness in windows of one d̃: χ²/dof, within 2 errors",
-        [f"{m[n]['shear_torque_chi2_window']:.2f}, "
-         f"{100 * m[n]['shear_torque_within_2err_window']:.0f} %" for n in names])
-    row("μ_c / k'_n, median over 4 ≤ r̃ ≤ 15", [f"{m[n]['mu_c_outer']:.3g}" for n in names])
+        lambda q, n: f"{q['shear_torque_chi2_window']:.2f}, "
+                     f"{100 * q['shear_torque_within_2err_window']:.0f} %")
+    row("μ_c / k'_n, median over 4 ≤ r̃ ≤ 15", lambda q, n: f"{q['mu_c_outer']:.3g}")
     lines.append("")
     mu = [m[n]["mu_c_outer"] for n in names]
     checks = [("decay length s within 25 % of the paper", all(
