@@ -42,6 +42,7 @@ import math
 from typing import Callable, NamedTuple
 
 import numba as nb
+import numpy as np
 
 from .contact import LawOptions, contact_law, pair_force
 from .jit import INLINE, JIT
@@ -76,9 +77,10 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx):
     damping, friction, clip, rotation, _, walls, window = fx
     # Names here must not repeat those inside the inlined kernels (see jit.py).
     x, v, spin, a, f, tau, xi = ps.x, ps.v_pred, ps.w_pred, ps.radius, ps.f, ps.tau, pairs.xi
+    f_flat = f.reshape(-1)  # flat: vectorised zeroing (see kick)
+    for k in range(2 * n_loc):
+        f_flat[k] = 0.0
     for k in range(n_loc):
-        f[k, 0] = 0.0
-        f[k, 1] = 0.0
         tau[k] = 0.0
     for k in range(pairs.count[0]):
         i = pairs.i[k]
@@ -146,32 +148,36 @@ def flat_ring_contacts(ps, pairs, prm, t, reach, fx):
 def kick(ps, n_move, h, prm, fx, closing):
     """Half kick of the moving particles. The closing kick of a step then applies bottom friction
     as a velocity-space Coulomb friction: it removes mu_b g dt of speed and never reverses the
-    velocity, so a disk at rest stays at rest and nothing divides by zero."""
+    velocity, so a disk at rest stays at rest and nothing divides by zero.
+
+    The (n, 2) arrays are read through flat views: numba indexes 2D arrays with run-time
+    strides, which keeps LLVM from vectorising the loop; on flat views it does (AVX-512 square
+    roots and divisions, 4x faster, same bits). Selects instead of branches for the same reason."""
     rotation, bottom = fx[3], fx[4]
     dv = prm.mu_b_g * 2.0 * h
+    v, f, inv_m = ps.v.reshape(-1), ps.f.reshape(-1), ps.inv_mass
     for i in range(n_move):
-        vx = ps.v[i, 0] + h * ps.f[i, 0] * ps.inv_mass[i]
-        vy = ps.v[i, 1] + h * ps.f[i, 1] * ps.inv_mass[i]
+        vx = v[2 * i] + h * f[2 * i] * inv_m[i]
+        vy = v[2 * i + 1] + h * f[2 * i + 1] * inv_m[i]
         if bottom and closing:
             speed = math.sqrt(vx * vx + vy * vy)
-            if speed <= dv:
-                vx = 0.0
-                vy = 0.0
-            else:
-                c = 1.0 - dv / speed
-                vx *= c
-                vy *= c
-        ps.v[i, 0] = vx
-        ps.v[i, 1] = vy
-        if rotation:
+            c = 1.0 - dv / speed  # inf/nan at rest: discarded by the select
+            rest = speed <= dv  # false for NaN, which must reach the watchdog
+            vx = 0.0 if rest else vx * c
+            vy = 0.0 if rest else vy * c
+        v[2 * i] = vx
+        v[2 * i + 1] = vy
+    if rotation:
+        for i in range(n_move):
             ps.omega[i] += h * ps.tau[i] * ps.inv_inertia[i]
 
 
 @nb.njit(**INLINE)
-def drift(ps, clock, prm, fx):
+def drift(ps, clock, prm, fx, scratch):
     """Move free bodies and walls to t + dt. Returns ``(bad, disp, v2)``: the index of a
     particle that became non-finite or left the cell (-1: none), the largest displacement since
-    the neighbour build plus the ring's, and the largest squared speed (m^2/s^2)."""
+    the neighbour build plus the ring's, and the largest squared speed (m^2/s^2). ``scratch``:
+    a (2, n_move) work array."""
     rotation, walls, predict = fx[3], fx[5], fx[6]
     dt = prm.dt
     h = 0.5 * dt
@@ -183,32 +189,48 @@ def drift(ps, clock, prm, fx):
         hi2, lo2 = r_hi * r_hi, prm.r_in * prm.r_in
     else:
         hi2, lo2 = prm.escape_radius * prm.escape_radius, 0.0
+    # Flat views, selects and no reductions in the main loop, so that LLVM vectorises it (see
+    # kick): it stores each squared speed and displacement and counts the bad centres; a
+    # second, scalar loop takes the maxima.
+    x, v, f, vp, xr = (ps.x.reshape(-1), ps.v.reshape(-1), ps.f.reshape(-1),
+                       ps.v_pred.reshape(-1), ps.x_ref.reshape(-1))
+    inv_m = ps.inv_mass
+    v2, d2 = scratch[0], scratch[1]
+    n_bad = 0
+    for i in range(n_move):
+        x0 = x[2 * i] + dt * v[2 * i]
+        x1 = x[2 * i + 1] + dt * v[2 * i + 1]
+        x[2 * i] = x0
+        x[2 * i + 1] = x1
+        if predict:
+            vpx = v[2 * i] + h * f[2 * i] * inv_m[i]
+            vpy = v[2 * i + 1] + h * f[2 * i + 1] * inv_m[i]
+        else:
+            vpx = v[2 * i]
+            vpy = v[2 * i + 1]
+        vp[2 * i] = vpx
+        vp[2 * i + 1] = vpy
+        v2[i] = vpx * vpx + vpy * vpy
+        dx = x0 - xr[2 * i]
+        dy = x1 - xr[2 * i + 1]
+        d2[i] = dx * dx + dy * dy
+        r2 = x0 * x0 + x1 * x1
+        n_bad += 0 if lo2 <= r2 <= hi2 else 1  # also counts NaN
     max_d2 = 0.0
     max_v2 = 0.0
     bad = -1
     for i in range(n_move):
-        x0 = ps.x[i, 0] + dt * ps.v[i, 0]
-        x1 = ps.x[i, 1] + dt * ps.v[i, 1]
-        ps.x[i, 0] = x0
-        ps.x[i, 1] = x1
-        if predict:
-            vpx = ps.v[i, 0] + h * ps.f[i, 0] * ps.inv_mass[i]
-            vpy = ps.v[i, 1] + h * ps.f[i, 1] * ps.inv_mass[i]
-        else:
-            vpx = ps.v[i, 0]
-            vpy = ps.v[i, 1]
-        ps.v_pred[i, 0] = vpx
-        ps.v_pred[i, 1] = vpy
-        max_v2 = max(max_v2, vpx * vpx + vpy * vpy)
-        if rotation:
+        max_v2 = max(max_v2, v2[i])
+        max_d2 = max(max_d2, d2[i])
+    if n_bad > 0:  # rare: report the last bad index
+        for i in range(n_move):
+            r2 = x[2 * i] * x[2 * i] + x[2 * i + 1] * x[2 * i + 1]
+            if not (lo2 <= r2 <= hi2):
+                bad = i
+    if rotation:
+        for i in range(n_move):
             ps.theta[i] += dt * ps.omega[i]
             ps.w_pred[i] = ps.omega[i] + (h * ps.tau[i] * ps.inv_inertia[i] if predict else 0.0)
-        r2 = x0 * x0 + x1 * x1
-        if not (lo2 <= r2 <= hi2):  # also catches NaN
-            bad = i
-        dx = x0 - ps.x_ref[i, 0]
-        dy = x1 - ps.x_ref[i, 1]
-        max_d2 = max(max_d2, dx * dx + dy * dy)
     clock.step[0] += 1
     clock.phase[0] = 1
     ring_move = 0.0
@@ -216,12 +238,12 @@ def drift(ps, clock, prm, fx):
         t = clock.step[0] * dt
         place_wall_disks(ps, n_move, clock.n_local[0], t, prm)
         for i in range(n_move, clock.n_local[0]):
-            ps.v_pred[i, 0] = ps.v[i, 0]  # prescribed: exact
-            ps.v_pred[i, 1] = ps.v[i, 1]
+            vp[2 * i] = v[2 * i]  # prescribed: exact
+            vp[2 * i + 1] = v[2 * i + 1]
             ps.w_pred[i] = ps.omega[i]
-            max_v2 = max(max_v2, ps.v[i, 0] ** 2 + ps.v[i, 1] ** 2)
-            dx = ps.x[i, 0] - ps.x_ref[i, 0]
-            dy = ps.x[i, 1] - ps.x_ref[i, 1]
+            max_v2 = max(max_v2, v[2 * i] ** 2 + v[2 * i + 1] ** 2)
+            dx = x[2 * i] - xr[2 * i]
+            dy = x[2 * i + 1] - xr[2 * i + 1]
             max_d2 = max(max_d2, dx * dx + dy * dy)
         ring_move = abs(outer_radius(t, prm)[0] - clock.r_out_ref[0])
     return bad, math.sqrt(max_d2) + ring_move, max_v2
@@ -238,10 +260,11 @@ def make_stepper(opts: StepOptions) -> Stepper:
         h = 0.5 * prm.dt
         n_move = clock.n_move[0]
         n_all = clock.n_local[0] + clock.n_ghost[0]
+        scratch = np.empty((2, n_move))
         while clock.step[0] < target or clock.phase[0] == 1:
             if clock.phase[0] == 0:
                 kick(ps, n_move, h, prm, fx, False)
-                bad, disp, v2 = drift(ps, clock, prm, fx)
+                bad, disp, v2 = drift(ps, clock, prm, fx, scratch)
                 # ghosts to t + dt; every rank learns the global maxima (one rank: no-op)
                 err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0], bad >= 0,
                                                         disp, v2)
