@@ -175,7 +175,7 @@ class Decomposition:
         self.halo = make_halo(
             comm, nbr, np.concatenate(send_list) if send_list else empty,
             np.concatenate([[0], np.cumsum([s.size for s in send_list])]),
-            np.concatenate([[0], np.cumsum(recv_counts)]), use_allreduce)
+            np.concatenate([[0], np.cumsum(recv_counts)]), use_allreduce, self.halo.wait)
         return own, ghosts, history
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:

@@ -54,6 +54,7 @@ mpi_irecv = types.ExternalFunction("MPI_Irecv", _I(_P, _I, _H, _I, _I, _H, _P))
 mpi_isend = types.ExternalFunction("MPI_Isend", _I(_P, _I, _H, _I, _I, _H, _P))
 mpi_waitall = types.ExternalFunction("MPI_Waitall", _I(_I, _P, _P))
 mpi_allreduce = types.ExternalFunction("MPI_Allreduce", _I(_P, _P, _I, _H, _H, _H))
+mpi_wtime = types.ExternalFunction("MPI_Wtime", types.float64())
 
 
 class Halo(NamedTuple):
@@ -65,6 +66,9 @@ class Halo(NamedTuple):
     req, status: MPI request and status storage (bytes). red [6]: Allreduce buffers.
     ints: active (0 on one rank: no MPI call at all), comm, MPI_DOUBLE, MPI_MAX handles,
     request size in bytes, use_allreduce.
+    wait [1] (s): time spent in MPI_Waitall and MPI_Allreduce, accumulated over the run (the
+    decomposition passes the same array to every new plan): the exchange latency plus the
+    wait for slower neighbours.
     """
 
     nbr: np.ndarray
@@ -77,9 +81,12 @@ class Halo(NamedTuple):
     status: np.ndarray
     red: np.ndarray
     ints: np.ndarray
+    wait: np.ndarray
 
 
-def make_halo(comm, nbr, send_idx, send_off, recv_off, use_allreduce: bool) -> Halo:
+def make_halo(comm, nbr, send_idx, send_off, recv_off, use_allreduce: bool,
+              wait: np.ndarray | None = None) -> Halo:
+    """``wait``: the accumulator to keep using (the run's total), or None for a new one."""
     k = len(nbr)
     rs, ss = MPI._sizeof(MPI.Request), MPI._sizeof(MPI.Status)
     active = comm is not None and comm.Get_size() > 1
@@ -91,7 +98,7 @@ def make_halo(comm, nbr, send_idx, send_off, recv_off, use_allreduce: bool) -> H
                 np.zeros(HEADER * k + GHOST_VALUES * len(send_idx)),
                 np.zeros(HEADER * k + GHOST_VALUES * int(recv_off[-1] if k else 0)),
                 np.zeros(max(2 * k * rs, 8), np.uint8), np.zeros(max(2 * k * ss, 8), np.uint8),
-                np.zeros(6), ints)
+                np.zeros(6), ints, np.zeros(1) if wait is None else wait)
 
 
 def serial_halo() -> Halo:
@@ -133,7 +140,9 @@ def refresh_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here):
         cnt = p - s0
         err |= mpi_isend(sb.ctypes.data + 8 * s0, cnt, dbl, halo.nbr[q], TAG, comm,
                          req + rsize * (k + q))
+    t0 = mpi_wtime()
     err |= mpi_waitall(2 * k, req, halo.status.ctypes.data)
+    halo.wait[0] += mpi_wtime() - t0
     bad_f = 1.0 if bad_here else 0.0
     disp, v2 = disp_here, v2_here
     rb = halo.rbuf
@@ -157,6 +166,8 @@ def refresh_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here):
         red[0] = bad_f
         red[1] = disp
         red[2] = v2
+        t0 = mpi_wtime()
         err |= mpi_allreduce(red.ctypes.data, red.ctypes.data + 24, 3, dbl, op_max, comm)
+        halo.wait[0] += mpi_wtime() - t0
         bad_f, disp, v2 = red[3], red[4], red[5]
     return err, bad_f > 0.0, disp, v2

@@ -338,6 +338,10 @@ class Simulation:
     def breakdown(self) -> str:
         total = sum(self.timers.values()) or 1.0
         rows = [f"  {k:<20s} {v:9.3f} s  {100 * v / total:5.1f} %" for k, v in self.timers.items()]
+        if self.decomp.parallel:  # part of forces+integration
+            wait = float(self.decomp.halo.wait[0])
+            rows.insert(1, f"    of which waiting on neighbours {wait:9.3f} s  "
+                           f"{100 * wait / total:5.1f} % (exchange latency + imbalance)")
         steps = int(self.clock.step[0])
         return "\n".join([f"time per stage on rank {self.decomp.rank} ({steps} steps, "
                           f"{self.n_rebuilds} neighbour builds; {self.decomp.describe()}):",

@@ -116,6 +116,14 @@ def test_pardem_run_on_2_ranks_writes_the_serial_snapshots(tmp_path):
         for key in a["contacts"]:
             np.testing.assert_array_equal(a["contacts"][key], b["contacts"][key], key)
     assert set(np.unique(parallel[-1]["rank"])) == {-1, 0, 1}  # wall disks, rank 0, rank 1
+    # the stage breakdown shows the time spent waiting in the per-step exchange, a part of the
+    # step loop's time (MPI_Wtime around the waits, summed over every neighbour-list plan)
+    log = (tmp_path / "mpi" / "log.txt").read_text().splitlines()
+    step = next(float(x.split()[1]) for x in log if x.strip().startswith("forces+integration"))
+    wait = next(float(x.split()[5]) for x in log if "of which waiting on neighbours" in x)
+    assert 0.0 < wait < step
+    serial_log = (tmp_path / "serial" / "log.txt").read_text()
+    assert "forces+integration" in serial_log and "waiting" not in serial_log
     # the files themselves: every dataset but the owning rank, and the XDMF indexes
     with h5py.File(tmp_path / "serial" / "particles.h5") as s, \
             h5py.File(tmp_path / "mpi" / "particles.h5") as p:
