@@ -35,14 +35,21 @@ class LawOptions(NamedTuple):
 
 
 @nb.njit(**INLINE)
-def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip, window):
+def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip, window,
+                defer=False):
     """``-> (fn, ftx, fty, xix, xiy, sliding)`` for a contact with normal (nx, ny), overlap
     delta (m) and relative contact velocity v_ij = (vx, vy) (m/s); (xix, xiy) is the spring
     before this step, the one returned is updated (rotated into the current tangent plane,
     incremented by v_ij^t dt, capped). delta <= 0 is allowed (a pair within half a step of
     touching): it gets only its share of the damping force, no elastic force and no spring.
-    Without ``window`` the damping acts in full while delta > 0 (plain velocity Verlet)."""
+    Without ``window`` the damping acts in full while delta > 0 (plain velocity Verlet).
+
+    ``defer`` (for the batched pair loop): skip the two rare branches, the partial damping
+    window and the Coulomb cap, which need divisions and a square root. If either was needed,
+    ``sliding`` comes back True and the results are unfinished: the caller must redo this
+    contact with ``defer=False``. Every other contact gets the same bits either way."""
     vn = vx * nx + vy * ny  # = -delta_dot
+    redo = False
     fn = prm.k_n * delta if delta > 0.0 else 0.0
     if damping and not window:
         fn -= prm.gamma_n * vn if delta > 0.0 else 0.0
@@ -54,7 +61,10 @@ def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip, w
         w = 1.0
         half = 0.5 * abs(vn) * prm.dt  # overlap change over half a step
         if delta < half:
-            w = max(0.5 + 0.5 * delta / half, 0.0) if half > 0.0 else 0.0
+            if defer:
+                redo = True
+            else:
+                w = max(0.5 + 0.5 * delta / half, 0.0) if half > 0.0 else 0.0
         fn -= w * prm.gamma_n * vn
     if clip:
         fn = max(fn, 0.0)
@@ -63,7 +73,7 @@ def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip, w
     sliding = False
     if friction:
         if delta <= 0.0:  # within reach of a contact, not touching: no spring
-            return fn, 0.0, 0.0, 0.0, 0.0, False
+            return fn, 0.0, 0.0, 0.0, 0.0, redo
         # Keep the spring in the tangent plane as the contact rotates (projection).
         xn = xix * nx + xiy * ny
         xix = xix - xn * nx + (vx - vn * nx) * prm.dt
@@ -72,29 +82,32 @@ def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip, w
         fty = -prm.k_t * xiy
         fmax = prm.mu * abs(fn)
         ft2 = ftx * ftx + fty * fty
-        if ft2 > fmax * fmax:
+        if ft2 > fmax * fmax and defer:
+            redo = True
+        elif ft2 > fmax * fmax:
             cap = fmax / math.sqrt(ft2)
             ftx *= cap
             fty *= cap
             xix = -ftx / prm.k_t
             xiy = -fty / prm.k_t
             sliding = True
-    return fn, ftx, fty, xix, xiy, sliding
+    return fn, ftx, fty, xix, xiy, sliding or redo
 
 
 @nb.njit(**INLINE)
 def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, friction, clip,
-               window):
+               window, defer=False):
     """Disk-disk contact. (dx, dy) = r_i - r_j, (dvx, dvy) = v_i - v_j, wi, wj spins; reach (m)
     bounds how far any overlap can change in half a step (pairs that close get their share of
-    damping). Returns ``(active, fx, fy, tau_i, tau_j, xix, xiy)``: force on i (j gets -f),
-    torques on i and j. Swapping i and j negates the force bit for bit (every operation is odd
+    damping). Returns ``(active, fx, fy, tau_i, tau_j, xix, xiy, sliding)``: force on i (j gets
+    -f), torques on i and j, and contact_law's flag (with ``defer``: redo this pair without).
+    Swapping i and j negates the force bit for bit (every operation is odd
     in the swap)."""
     r2 = dx * dx + dy * dy
     rs = ai + aj
     lim = rs + reach if damping and window else rs
     if r2 >= lim * lim:
-        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+        return False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False
     dist = math.sqrt(r2)
     inv = 1.0 / dist
     nx = dx * inv
@@ -102,9 +115,9 @@ def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, 
     delta = rs - dist
     s = ai * wi + aj * wj
     # v_ij = dv - s (z x n), with z x n = (-ny, nx)
-    fn, ftx, fty, xix, xiy, _ = contact_law(nx, ny, delta, dvx + s * ny, dvy - s * nx, xix, xiy,
-                                            prm, damping, friction, clip, window)
+    fn, ftx, fty, xix, xiy, flag = contact_law(nx, ny, delta, dvx + s * ny, dvy - s * nx, xix,
+                                               xiy, prm, damping, friction, clip, window, defer)
     # torque of f_t about each centre, lever (a - delta/2) along -n for i and +n for j
     nxft = nx * fty - ny * ftx
     return (True, fn * nx + ftx, fn * ny + fty, -(ai - 0.5 * delta) * nxft,
-            -(aj - 0.5 * delta) * nxft, xix, xiy)
+            -(aj - 0.5 * delta) * nxft, xix, xiy, flag)

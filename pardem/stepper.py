@@ -71,40 +71,121 @@ class Stepper(NamedTuple):
     compute_forces: Callable
 
 
+BATCH = 64  # pairs per batch: the work rows (19 x 64 doubles, 10 kB) stay in L1
+# rows of the work array: inputs of pair_force, its outputs, and the lanes to redo
+(W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_XIX, W_XIY,
+ W_ACT, W_FX, W_FY, W_TI, W_TJ, W_XOX, W_XOY, W_REDO, W_LANE) = range(19)
+WORK_ROWS = 19
+
+
 @nb.njit(**INLINE)
-def forces(ps, pairs, n_loc, prm, t, reach, fx):
-    """Pair contacts in canonical order, then flat ring contacts -> ps.f, ps.tau, springs."""
-    damping, friction, clip, rotation, _, walls, window = fx
-    # Names here must not repeat those inside the inlined kernels (see jit.py).
-    x, v, spin, a, f, tau, xi = ps.x, ps.v_pred, ps.w_pred, ps.radius, ps.f, ps.tau, pairs.xi
-    f_flat = f.reshape(-1)  # flat: vectorised zeroing (see kick)
+def forces(ps, pairs, n_loc, prm, t, reach, fx, work):
+    """Pair contacts in canonical order, then flat ring contacts -> ps.f, ps.tau, springs.
+
+    The pairs go through four loops in batches of BATCH, so that the contact law runs in SIMD
+    lanes, one pair per lane. (One fused loop was bound by the latency of a pair's ~100-cycle
+    chain of dependent square root and divisions, with 1-2 pairs in flight.)
+      gather   copy each pair's inputs into the work rows (unsigned indices: numba then adds
+               no negative-index wrap-around, which spilled registers here);
+      law      pair_force on the work rows only, at unit stride, so LLVM vectorises it without
+               alias checks; the rare branches (Coulomb cap, partial damping window) are
+               deferred;
+      redo     the few deferred pairs (~4 %: sliding or just touching), scalar, with the full
+               law: the same bits as computing every pair with it;
+      scatter  forces and torques added in list order. Pairs come sorted by their lower
+               particle, so its sums stay in registers along its run of pairs: the same
+               additions in the same order as f[i] += ... pair by pair, without a chain of
+               stores and reloads through memory.
+    ``work``: a flat (WORK_ROWS * BATCH) float array. The flat views are made once here: made
+    per batch, their reference counting cost more than the gather."""
+    friction, rotation, walls = fx[1], fx[3], fx[5]
+    gx, gv, gw, ga = ps.x.reshape(-1), ps.v_pred.reshape(-1), ps.w_pred, ps.radius
+    sf, st, sxi = ps.f.reshape(-1), ps.tau, pairs.xi.reshape(-1)
+    pi, pj = pairs.i, pairs.j
     for k in range(2 * n_loc):
-        f_flat[k] = 0.0
+        sf[k] = 0.0
     for k in range(n_loc):
-        tau[k] = 0.0
-    for k in range(pairs.count[0]):
-        i = pairs.i[k]
-        j = pairs.j[k]
-        xix = xi[k, 0] if friction else 0.0
-        xiy = xi[k, 1] if friction else 0.0
-        wi = spin[i] if rotation else 0.0
-        wj = spin[j] if rotation else 0.0
-        active, fxk, fyk, ti, tj, xix, xiy = pair_force(
-            x[i, 0] - x[j, 0], x[i, 1] - x[j, 1], a[i], a[j], v[i, 0] - v[j, 0],
-            v[i, 1] - v[j, 1], wi, wj, xix, xiy, reach, prm, damping, friction, clip, window)
-        if friction:
-            xi[k, 0] = xix  # a pair that does not touch comes back with xi = 0
-            xi[k, 1] = xiy
-        if active:
-            f[i, 0] += fxk
-            f[i, 1] += fyk
-            f[j, 0] -= fxk
-            f[j, 1] -= fyk
-            if rotation:
-                tau[i] += ti
-                tau[j] += tj
+        st[k] = 0.0
+    one = np.uint64(1)
+    n_pairs = pairs.count[0]
+    for first in range(0, n_pairs, BATCH):
+        m = min(BATCH, n_pairs - first)
+        for q in range(m):
+            kk = np.uint64(first + q)
+            ii = np.uint64(pi[kk])
+            jj = np.uint64(pj[kk])
+            work[W_DX * BATCH + q] = gx[ii + ii] - gx[jj + jj]
+            work[W_DY * BATCH + q] = gx[ii + ii + one] - gx[jj + jj + one]
+            work[W_AI * BATCH + q] = ga[ii]
+            work[W_AJ * BATCH + q] = ga[jj]
+            work[W_DVX * BATCH + q] = gv[ii + ii] - gv[jj + jj]
+            work[W_DVY * BATCH + q] = gv[ii + ii + one] - gv[jj + jj + one]
+            work[W_WI * BATCH + q] = gw[ii] if rotation else 0.0
+            work[W_WJ * BATCH + q] = gw[jj] if rotation else 0.0
+            work[W_XIX * BATCH + q] = sxi[kk + kk] if friction else 0.0
+            work[W_XIY * BATCH + q] = sxi[kk + kk + one] if friction else 0.0
+        for q in range(BATCH):  # lanes past m hold stale, finite inputs
+            lane_law(work, q, reach, prm, fx, True)
+        # A plain loop over the lanes "if redo" would be vectorised with every lane computed;
+        # through a list of lanes it stays scalar.
+        n_redo = 0
+        for q in range(m):
+            if work[W_REDO * BATCH + q] != 0.0:
+                work[W_LANE * BATCH + n_redo] = q
+                n_redo += 1
+        for r in range(n_redo):
+            lane_law(work, int(work[W_LANE * BATCH + r]), reach, prm, fx, False)
+        cur = np.uint64(pi[first])
+        acc_x = sf[cur + cur]
+        acc_y = sf[cur + cur + one]
+        acc_t = st[cur]
+        for q in range(m):
+            kk = np.uint64(first + q)
+            if friction:  # a pair that does not touch comes back with xi = 0
+                sxi[kk + kk] = work[W_XOX * BATCH + q]
+                sxi[kk + kk + one] = work[W_XOY * BATCH + q]
+            ii = np.uint64(pi[kk])
+            if ii != cur:
+                sf[cur + cur] = acc_x
+                sf[cur + cur + one] = acc_y
+                st[cur] = acc_t
+                cur = ii
+                acc_x = sf[cur + cur]
+                acc_y = sf[cur + cur + one]
+                acc_t = st[cur]
+            if work[W_ACT * BATCH + q] != 0.0:
+                jj = np.uint64(pj[kk])
+                acc_x += work[W_FX * BATCH + q]
+                acc_y += work[W_FY * BATCH + q]
+                sf[jj + jj] -= work[W_FX * BATCH + q]
+                sf[jj + jj + one] -= work[W_FY * BATCH + q]
+                if rotation:
+                    acc_t += work[W_TI * BATCH + q]
+                    st[jj] += work[W_TJ * BATCH + q]
+        sf[cur + cur] = acc_x
+        sf[cur + cur + one] = acc_y
+        st[cur] = acc_t
     if walls:
         flat_ring_contacts(ps, pairs, prm, t, reach, fx)
+
+
+@nb.njit(**INLINE)
+def lane_law(work, lane, reach, prm, fx, defer):
+    """pair_force on one lane of the work rows (see forces), outputs written back there."""
+    damping, friction, clip, _, _, _, window = fx
+    act, fxl, fyl, til, tjl, xoxl, xoyl, redo = pair_force(
+        work[W_DX * BATCH + lane], work[W_DY * BATCH + lane], work[W_AI * BATCH + lane],
+        work[W_AJ * BATCH + lane], work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane],
+        work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane], work[W_XIX * BATCH + lane],
+        work[W_XIY * BATCH + lane], reach, prm, damping, friction, clip, window, defer)
+    work[W_ACT * BATCH + lane] = 1.0 if act else 0.0
+    work[W_FX * BATCH + lane] = fxl
+    work[W_FY * BATCH + lane] = fyl
+    work[W_TI * BATCH + lane] = til
+    work[W_TJ * BATCH + lane] = tjl
+    work[W_XOX * BATCH + lane] = xoxl
+    work[W_XOY * BATCH + lane] = xoyl
+    work[W_REDO * BATCH + lane] = 1.0 if redo else 0.0
 
 
 @nb.njit(**INLINE)
@@ -261,6 +342,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
         n_move = clock.n_move[0]
         n_all = clock.n_local[0] + clock.n_ghost[0]
         scratch = np.empty((2, n_move))
+        work = np.zeros(WORK_ROWS * BATCH)
         while clock.step[0] < target or clock.phase[0] == 1:
             if clock.phase[0] == 0:
                 kick(ps, n_move, h, prm, fx, False)
@@ -277,7 +359,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 # 2 max_disp + reach <= skin
                 if disp + 0.5 * clock.reach[0] > 0.5 * prm.skin:
                     return NEED_REBUILD, -1
-            forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], fx)
+            forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], fx, work)
             kick(ps, n_move, h, prm, fx, True)
             clock.phase[0] = 0
         return OK, -1
@@ -290,6 +372,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
         ps.v_pred[:n] = ps.v[:n]
         ps.w_pred[:n] = ps.omega[:n]
         clock.reach[0] = math.sqrt(v2) * prm.dt
-        forces(ps, pairs, n, prm, clock.step[0] * prm.dt, clock.reach[0], fx)
+        forces(ps, pairs, n, prm, clock.step[0] * prm.dt, clock.reach[0], fx,
+               np.zeros(WORK_ROWS * BATCH))
 
     return Stepper(advance=advance, compute_forces=compute_forces)

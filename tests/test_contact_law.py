@@ -7,6 +7,7 @@ import pytest
 
 from pardem.contact import contact_law, pair_force
 from pardem.state import Params
+from pardem.stepper import BATCH
 
 PRM = Params(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, mu_b_g=0.0, r_in=0.0,
              omega_in=0.0, r_out=0.0, r_out0=0.0, t_comp=0.0, skin=1e-3, escape_radius=math.inf)
@@ -34,9 +35,9 @@ HAND = dict(fx=0.3711, fy=-4.5407e-3, tau=2.043315e-5, xi=(0.0, 1.7e-5))
 @pytest.mark.parametrize("jitted", [True, False])
 def test_pair_force_matches_hand_computation(jitted):
     fn = make_pair(jitted=jitted)
-    touching, fx, fy, ti, tj, xix, xiy = fn(9e-3, 0.0, 5e-3, 5e-3, -0.1, 0.2, 2.0, 4.0, 0.0, 0.0,
-                                            0.0, PRM)
-    assert touching
+    touching, fx, fy, ti, tj, xix, xiy, sliding = fn(9e-3, 0.0, 5e-3, 5e-3, -0.1, 0.2, 2.0, 4.0,
+                                                     0.0, 0.0, 0.0, PRM)
+    assert touching and not sliding
     assert fx == pytest.approx(HAND["fx"], rel=1e-12)
     assert fy == pytest.approx(HAND["fy"], rel=1e-12)
     assert ti == pytest.approx(HAND["tau"], rel=1e-12)
@@ -115,21 +116,24 @@ def test_damping_is_weighted_by_the_in_contact_fraction_of_the_step():
 
 @pytest.mark.parametrize("friction", [True, False])
 def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
-    """The inlined pair loop gives the same bits as summing standalone kernel calls in pair order
-    (guards against compiler inlining changing results)."""
+    """The batched pair loop gives the same bits as summing standalone kernel calls in pair order
+    (guards against compiler inlining and the SIMD law with deferred branches changing
+    results)."""
     from helpers import dense_packing, free_scene
 
     from pardem.simulation import Simulation
 
     eff = {"normal_damping": True, "rotation": True, "tangential_friction": friction}
     sim = Simulation(free_scene(dense_packing(10, 10, speed=0.05), effects=eff,
-                                contact={"mu": 0.3}))
+                                contact={"mu": 0.02}))
     sim.advance_steps(200)
     ps, pr = sim.ps, sim.pairs
     xi0 = pr.xi.copy()
     sim._compute_forces()
     f = np.zeros_like(ps.f)
     tau = np.zeros_like(ps.tau)
+    xi = np.zeros((pr.count[0], 2))
+    n_sliding = 0
     for k in range(pr.count[0]):
         i, j = pr.i[k], pr.j[k]
         xix, xiy = (xi0[k] if friction else (0.0, 0.0))
@@ -137,10 +141,55 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
                        ps.radius[j], ps.v_pred[i, 0] - ps.v_pred[j, 0],
                        ps.v_pred[i, 1] - ps.v_pred[j, 1], ps.w_pred[i], ps.w_pred[j], xix, xiy,
                        sim.clock.reach[0], sim.prm, True, friction, False, True)
+        xi[k] = r[5:7]
+        n_sliding += r[7]
         if r[0]:
             f[i] += r[1:3]
             f[j] -= r[1:3]
             tau[i] += r[3]
             tau[j] += r[4]
+    # several batches, the last one partial
+    assert pr.count[0] > 2 * BATCH and pr.count[0] % BATCH
+    if friction:  # the loop's deferred branch, recomputed pair by pair, is exercised
+        assert n_sliding > 0
     np.testing.assert_array_equal(ps.f, f)
     np.testing.assert_array_equal(ps.tau, tau)
+    if friction:
+        np.testing.assert_array_equal(pr.xi[:pr.count[0]], xi)
+    else:  # a frictionless scene stores no springs
+        assert pr.xi.size == 0 and not xi.any()
+
+
+@pytest.mark.parametrize("jitted", [True, False])
+def test_deferred_law_is_exact_or_asks_for_a_redo(jitted):
+    """The batched loop computes every pair with the rare branches deferred and redoes the
+    flagged ones. That is exact only if an unflagged result has the same bits as the full law,
+    and every contact that slides or is within half a step of touching is flagged."""
+    pair = pair_force if jitted else pair_force.py_func
+    rng = np.random.default_rng(11)
+    flagged = {"sliding": 0, "window": 0, "plain": 0}
+    for _ in range(3000):
+        ai, aj = rng.uniform(3e-3, 5e-3, 2)
+        dist = (ai + aj) * rng.uniform(0.97, 1.01)
+        phi = rng.uniform(0, 2 * math.pi)
+        dx, dy = dist * math.cos(phi), dist * math.sin(phi)
+        dvx, dvy = rng.normal(0, 0.3, 2)
+        wi, wj = rng.normal(0, 30, 2)
+        xix, xiy = rng.normal(0, 2e-4, 2)
+        args = (dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, 2e-4, PRM, *FULL)
+        full, deferred = pair(*args, False), pair(*args, True)
+        # the window is partial while the overlap is below half a step's change of it
+        nx, ny = dx / dist, dy / dist
+        s = ai * wi + aj * wj
+        vn = (dvx + s * ny) * nx + (dvy - s * nx) * ny
+        window = full[0] and ai + aj - dist < 0.5 * abs(vn) * PRM.dt
+        assert deferred[0] == full[0]
+        if full[7] or window:
+            assert deferred[7]
+            flagged["sliding" if full[7] else "window"] += 1
+        else:
+            assert not deferred[7]
+            bits = [np.array(r[1:7]).view(np.int64) for r in (deferred, full)]
+            np.testing.assert_array_equal(*bits)
+            flagged["plain"] += full[0]
+    assert min(flagged.values()) > 100, flagged
