@@ -26,7 +26,7 @@ from mpi4py import MPI
 from . import sectors as sec
 from .mpi_native import Halo, make_halo, serial_halo
 from .scene import SceneError
-from .state import join_rows
+from .state import join_rows, pack_rows, unpack_rows
 
 History = tuple[np.ndarray, np.ndarray, np.ndarray]  # (gid_lo, gid_hi, xi [m,2]) sorted by key
 HIST_BINS = 4096
@@ -130,20 +130,25 @@ class Decomposition:
     def distribute(self, own: dict[str, np.ndarray], history: History | None):
         """Migrate owned particles that left the sector (with their springs) and exchange ghosts.
         Returns ``(own, ghosts, history)``: owned rows sorted by gid, ghost rows, and the merged
-        spring history; sets ``self.halo`` for the ghosts' per-step refresh."""
+        spring history; sets ``self.halo`` for the ghosts' per-step refresh.
+
+        Rows travel packed into float64 buffers (``pack_rows``), one ``Alltoallv`` per round:
+        pickling a dict of arrays per message cost more than the rest of the build."""
         comm, rank, size = self.comm, self.rank, self.size
-        owner = self.sectors.owner(own["x"])
+        width = sum(int(np.prod(v.shape[1:])) for v in own.values())  # doubles per row
+        owner = self.sectors.owner(own["x"], rank)
         outgoing: list = [None] * size
         for r in np.unique(owner[owner != rank]):
-            sel = owner == r
-            springs = None
+            idx = np.flatnonzero(owner == r)
+            springs = np.zeros((0, 4))
             if history is not None:
-                gids = own["gid"][sel]
+                gids = own["gid"][idx]
                 h = np.isin(history[0], gids) | np.isin(history[1], gids)
-                springs = tuple(a[h] for a in history)
-            outgoing[r] = ({k: v[sel] for k, v in own.items()}, springs)
-        incoming = comm.alltoall(outgoing)
-        arrivals = [item for item in incoming if item is not None]
+                springs = np.column_stack([history[0][h], history[1][h], history[2][h]])
+            outgoing[r] = np.concatenate([[idx.size, springs.shape[0]],
+                                          pack_rows(own, idx).ravel(), springs.ravel()])
+        arrivals = [_unpack_migrants(buf, width, own) for buf in self._alltoall(outgoing)
+                    if buf is not None]
         if arrivals or np.any(owner != rank):  # otherwise own is unchanged (and sorted)
             mine = owner == rank
             own = join_rows([{k: v[mine] for k, v in own.items()}] + [a[0] for a in arrivals])
@@ -151,7 +156,7 @@ class Decomposition:
             own = {k: v[order] for k, v in own.items()}
             self.n_migrated += sum(a[0]["gid"].shape[0] for a in arrivals)
             if history is not None:
-                history = merge_history([history] + [a[1] for a in arrivals if a[1] is not None])
+                history = merge_history([history] + [a[1] for a in arrivals])
 
         send_idx: dict[int, np.ndarray] = {}
         outgoing = [None] * size
@@ -161,22 +166,41 @@ class Decomposition:
             idx = np.flatnonzero(self.sectors.distance(own["x"], r) < self.ghost_width)
             if idx.size:
                 send_idx[r] = idx
-                outgoing[r] = {k: v[idx] for k, v in own.items()}
-        incoming = comm.alltoall(outgoing)
-        recv = {r: g for r, g in enumerate(incoming) if g is not None}
+                outgoing[r] = pack_rows(own, idx).ravel()
+        recv = {r: buf.reshape(-1, width) for r, buf in enumerate(self._alltoall(outgoing))
+                if buf is not None}
         nbr = sorted(set(send_idx) | set(recv))
         empty = np.zeros(0, np.int64)
         send_list = [send_idx.get(r, empty) for r in nbr]
-        recv_counts = [recv[r]["gid"].shape[0] if r in recv else 0 for r in nbr]
-        ghost_parts = [recv[r] for r in nbr if r in recv]
-        ghosts = join_rows(ghost_parts) if ghost_parts else {k: v[:0] for k, v in own.items()}
-        # Header maxima are global only if every rank talks to every other one.
-        use_allreduce = comm.allreduce(len(nbr) < size - 1, op=MPI.LOR)
+        recv_counts = [recv[r].shape[0] if r in recv else 0 for r in nbr]
+        ghosts = unpack_rows(np.concatenate([recv[r] for r in nbr if r in recv])
+                             if recv else np.zeros((0, width)), own)
+        # Header maxima are global only if every rank talks to every other one. On 2 ranks
+        # both know: each is the other's neighbour or neither is.
+        use_allreduce = len(nbr) < size - 1
+        if size > 2:
+            use_allreduce = comm.allreduce(use_allreduce, op=MPI.LOR)
         self.halo = make_halo(
             comm, nbr, np.concatenate(send_list) if send_list else empty,
             np.concatenate([[0], np.cumsum([s.size for s in send_list])]),
             np.concatenate([[0], np.cumsum(recv_counts)]), use_allreduce, self.halo.wait)
         return own, ghosts, history
+
+    def _alltoall(self, outgoing: list) -> list:
+        """One float64 buffer to each rank (None: nothing) -> the buffer from each (None:
+        nothing): the counts in one ``Alltoall``, the data in one ``Alltoallv``."""
+        send_n = np.array([0 if b is None else b.size for b in outgoing], np.int64)
+        recv_n = np.zeros(self.size, np.int64)
+        self.comm.Alltoall([send_n, MPI.INT64_T], [recv_n, MPI.INT64_T])
+        send_at = np.concatenate([[0], np.cumsum(send_n)[:-1]])
+        recv_at = np.concatenate([[0], np.cumsum(recv_n)[:-1]])
+        parts = [b for b in outgoing if b is not None]
+        sbuf = np.concatenate(parts) if parts else np.zeros(0)
+        rbuf = np.empty(int(recv_n.sum()))
+        self.comm.Alltoallv([sbuf, (send_n, send_at), MPI.DOUBLE],
+                            [rbuf, (recv_n, recv_at), MPI.DOUBLE])
+        return [rbuf[recv_at[r]:recv_at[r] + recv_n[r]] if recv_n[r] else None
+                for r in range(self.size)]
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:
         """Values of an owned per-particle array for this rank's ghosts, in ghost order (output
@@ -197,6 +221,15 @@ class Decomposition:
         deg = np.degrees(np.diff(self.sectors.edges))
         return (f"{self.size} ranks, sectors {', '.join(f'{d:.1f}' for d in deg)} deg, "
                 f"ghost width {self.ghost_width * 1e3:.2f} mm")
+
+
+def _unpack_migrants(buf: np.ndarray, width: int, like: dict[str, np.ndarray]):
+    """A migration message -> (rows, springs): [n, m, n rows of ``width``, m springs (lo, hi,
+    xi_x, xi_y)]."""
+    n, m = int(buf[0]), int(buf[1])
+    rows = unpack_rows(buf[2:2 + n * width].reshape(n, width), like)
+    sp = buf[2 + n * width:].reshape(m, 4)
+    return rows, (sp[:, 0].astype(np.int64), sp[:, 1].astype(np.int64), sp[:, 2:].copy())
 
 
 def merge_history(parts: list[History]) -> History:

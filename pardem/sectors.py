@@ -14,7 +14,10 @@ from __future__ import annotations
 import math
 from typing import NamedTuple
 
+import numba as nb
 import numpy as np
+
+from .jit import JIT
 
 TWO_PI = 2.0 * math.pi
 
@@ -28,29 +31,64 @@ class Sectors(NamedTuple):
     def count(self) -> int:
         return self.edges.size - 1
 
-    def owner(self, x: np.ndarray) -> np.ndarray:
-        """Rank owning each point of x [n,2] (m)."""
+    def owner(self, x: np.ndarray, guess: int = 0) -> np.ndarray:
+        """Rank owning each point of x [n,2] (m). ``guess``: the rank most points are expected
+        in (tested first, without an arc tangent)."""
         if self.count == 1:
             return np.zeros(x.shape[0], np.int64)
-        a = np.mod(np.arctan2(x[:, 1], x[:, 0]) - self.edges[0], TWO_PI)
-        r = np.searchsorted(self.edges - self.edges[0], a, side="right") - 1
-        return np.clip(r, 0, self.count - 1)
+        return _owner(x, self.edges, guess)
 
     def distance(self, x: np.ndarray, rank: int) -> np.ndarray:
         """Distance (m) of points x [n,2] outside sector ``rank`` from that sector."""
-        return np.minimum(_ray_distance(x, self.edges[rank]),
-                          _ray_distance(x, self.edges[rank + 1]))
+        return _distance(x, self.edges[rank], self.edges[rank + 1])
 
     def arc_width(self, radius: float) -> float:
         """Narrowest sector's arc length (m) at the given radius."""
         return float(np.min(np.diff(self.edges)) * radius)
 
 
-def _ray_distance(x: np.ndarray, angle: float) -> np.ndarray:
-    ex, ey = math.cos(angle), math.sin(angle)
-    along = x[:, 0] * ex + x[:, 1] * ey
-    across = np.abs(x[:, 0] * ey - x[:, 1] * ex)
-    return np.where(along > 0.0, across, np.hypot(x[:, 0], x[:, 1]))
+# Compiled: called at every neighbour build, where numpy's per-call overhead dominated.
+@nb.njit(**JIT)
+def _owner(x, edges, guess):
+    p = edges.size - 1
+    # wedge ``guess`` by the sides of its two rays (a wedge wider than pi: not in the rest)
+    c0, s0 = math.cos(edges[guess]), math.sin(edges[guess])
+    c1, s1 = math.cos(edges[guess + 1]), math.sin(edges[guess + 1])
+    wide = edges[guess + 1] - edges[guess] > math.pi
+    out = np.empty(x.shape[0], np.int64)
+    for k in range(x.shape[0]):
+        px, py = x[k, 0], x[k, 1]
+        if wide:
+            inside = not (c1 * py - s1 * px >= 0.0 and px * s0 - py * c0 > 0.0)
+        else:
+            inside = c0 * py - s0 * px >= 0.0 and px * s1 - py * c1 > 0.0
+        if inside:
+            out[k] = guess
+            continue
+        a = (math.atan2(py, px) - edges[0]) % TWO_PI
+        r = 0
+        while r < p - 1 and edges[r + 1] - edges[0] <= a:
+            r += 1
+        out[k] = r
+    return out
+
+
+@nb.njit(**JIT)
+def _distance(x, angle0, angle1):
+    out = np.empty(x.shape[0])
+    c0, s0, c1, s1 = math.cos(angle0), math.sin(angle0), math.cos(angle1), math.sin(angle1)
+    for k in range(x.shape[0]):
+        out[k] = min(_ray_distance(x[k, 0], x[k, 1], c0, s0),
+                     _ray_distance(x[k, 0], x[k, 1], c1, s1))
+    return out
+
+
+@nb.njit(**JIT)
+def _ray_distance(px, py, ex, ey):
+    """Distance of the point (px, py) from the ray from the origin along (ex, ey)."""
+    if px * ex + py * ey > 0.0:
+        return abs(px * ey - py * ex)
+    return math.hypot(px, py)
 
 
 def single() -> Sectors:

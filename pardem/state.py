@@ -166,6 +166,24 @@ def join_rows(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
+def pack_rows(rows: dict[str, np.ndarray], idx: np.ndarray) -> np.ndarray:
+    """Rows ``idx`` of every array as one float64 matrix [len(idx), columns] (for messages:
+    integer ids and kinds are exact in float64 below 2**53)."""
+    return np.concatenate([v[idx].reshape(idx.size, -1) for v in rows.values()], axis=1,
+                          dtype=np.float64)
+
+
+def unpack_rows(m: np.ndarray, like: dict[str, np.ndarray]) -> dict[str, np.ndarray]:
+    """The inverse of ``pack_rows``: arrays with the names, dtypes and row shapes of ``like``."""
+    out, c = {}, 0
+    for k, v in like.items():
+        shape = v.shape[1:]
+        w = int(np.prod(shape))
+        out[k] = m[:, c:c + w].reshape((m.shape[0],) + shape).astype(v.dtype)
+        c += w
+    return out
+
+
 def particles_from_rows(rows: dict[str, np.ndarray], capacity: int, friction: bool) -> Particles:
     """Particle arrays of the given capacity holding ``rows`` at the front."""
     ps = new_particles(capacity, friction)
