@@ -135,7 +135,7 @@ class Decomposition:
         Rows travel packed into float64 buffers (``pack_rows``), one ``Alltoallv`` per round:
         pickling a dict of arrays per message cost more than the rest of the build."""
         comm, rank, size = self.comm, self.rank, self.size
-        width = sum(int(np.prod(v.shape[1:])) for v in own.values())  # doubles per row
+        width = sum(math.prod(v.shape[1:]) for v in own.values())  # doubles per row
         owner = self.sectors.owner(own["x"], rank)
         outgoing: list = [None] * size
         for r in np.unique(owner[owner != rank]):

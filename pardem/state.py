@@ -16,6 +16,7 @@ Layout invariants
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -178,7 +179,7 @@ def unpack_rows(m: np.ndarray, like: dict[str, np.ndarray]) -> dict[str, np.ndar
     out, c = {}, 0
     for k, v in like.items():
         shape = v.shape[1:]
-        w = int(np.prod(shape))
+        w = math.prod(shape)
         out[k] = m[:, c:c + w].reshape((m.shape[0],) + shape).astype(v.dtype)
         c += w
     return out

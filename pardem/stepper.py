@@ -47,7 +47,8 @@ import numpy as np
 from .contact import LawOptions, contact_law, pair_force
 from .jit import INLINE, JIT
 from .mpi_native import refresh_ghosts
-from .walls import outer_radius, place_wall_disks
+from .state import OUTER_WALL
+from .walls import outer_radius, outer_ring_settled, place_wall_disks
 
 OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED = 0, 1, 2, 3
 
@@ -317,8 +318,11 @@ def drift(ps, clock, prm, fx, scratch):
     ring_move = 0.0
     if walls:
         t = clock.step[0] * dt
-        place_wall_disks(ps, n_move, clock.n_local[0], t, prm)
+        settled = outer_ring_settled(t, prm)
+        place_wall_disks(ps, n_move, clock.n_local[0], t, prm, settled)
         for i in range(n_move, clock.n_local[0]):
+            if settled and ps.kind[i] == OUTER_WALL:  # at rest where the last build saw them
+                continue
             vp[2 * i] = v[2 * i]  # prescribed: exact
             vp[2 * i + 1] = v[2 * i + 1]
             ps.w_pred[i] = ps.omega[i]

@@ -15,6 +15,7 @@ import numba as nb
 import numpy as np
 
 from .jit import JIT
+from .state import INNER_WALL
 
 
 @nb.njit(**JIT)
@@ -28,14 +29,23 @@ def outer_radius(t, prm):
 
 
 @nb.njit(**JIT)
-def place_wall_disks(ps, first, last, t, prm):
+def outer_ring_settled(t, prm):
+    """True at time t (s) if the outer ring's disks already sit at rest at their final radius:
+    the step loop placed them at the previous step, after the compression (one step of slack
+    against rounding of t). From then on placing them again would write the same bits."""
+    return t > 1.5 * prm.dt and t - 2.0 * prm.dt >= prm.t_comp
+
+
+@nb.njit(**JIT)
+def place_wall_disks(ps, first, last, t, prm, settled):
     """Set position, velocity and spin of wall disks ps[first:last] at time t (an exact function
-    of t and the disk's unit vector e0, so every rank and every restart gets the same bits)."""
+    of t and the disk's unit vector e0, so every rank and every restart gets the same bits).
+    ``settled`` (outer_ring_settled): skip the outer ring's disks, which would not change."""
     r_o, r_o_dot = outer_radius(t, prm)
     c, s = math.cos(prm.omega_in * t), math.sin(prm.omega_in * t)
     for k in range(first, last):
         ex, ey = ps.e0[k, 0], ps.e0[k, 1]
-        if ps.kind[k] == 1:  # rotate e0 by omega_in t
+        if ps.kind[k] == INNER_WALL:  # rotate e0 by omega_in t
             ux = ex * c - ey * s
             uy = ey * c + ex * s
             ps.x[k, 0] = prm.r_in * ux
@@ -44,7 +54,7 @@ def place_wall_disks(ps, first, last, t, prm):
             ps.v[k, 1] = prm.omega_in * prm.r_in * ux
             ps.omega[k] = prm.omega_in  # glued: turns with the ring
             ps.theta[k] = prm.omega_in * t
-        else:
+        elif not settled:
             ps.x[k, 0] = r_o * ex
             ps.x[k, 1] = r_o * ey
             ps.v[k, 0] = r_o_dot * ex
