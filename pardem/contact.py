@@ -1,11 +1,12 @@
 """The contact law of SPEC §3 (paper eqs. 1.1-1.4), specialised on the scene's effects.
 
 Stage: force kernels. ``contact_law`` and ``pair_force`` are stateless jitted functions that the
-step loop inlines; their last four arguments are the effect switches (damping, friction,
-clip, window: the damping weight at contact entry and exit, part of the default integrator).
-The step loop passes compile-time constants there, so a disabled effect is removed by the
-compiler (no branch per contact, no history access). Keeping these module-level (not closures)
-lets numba's on-disk cache serve them to every later process.
+step loop inlines; their last arguments are the effect switches (damping, friction, clip,
+window: the damping weight at contact entry and exit, part of the default integrator) and
+``defer`` (the batched pair loop's SIMD pass). The step loop passes compile-time constants
+there, so a disabled effect is removed by the compiler (no branch per contact, no history
+access). Keeping these module-level (not closures) lets numba's on-disk cache serve them to
+every later process.
 
 Conventions (shared with the averaging package):
 - n points from partner j to particle i; overlap delta = a_i + a_j - |r_i - r_j| > 0.

@@ -51,7 +51,8 @@ class Sectors(NamedTuple):
 @nb.njit(**JIT)
 def _owner(x, edges, guess):
     p = edges.size - 1
-    # wedge ``guess`` by the sides of its two rays (a wedge wider than pi: not in the rest)
+    # wedge ``guess`` by the sides of its two rays; a wedge wider than pi is tested as "not in
+    # the complementary wedge", which is narrower than pi
     c0, s0 = math.cos(edges[guess]), math.sin(edges[guess])
     c1, s1 = math.cos(edges[guess + 1]), math.sin(edges[guess + 1])
     wide = edges[guess + 1] - edges[guess] > math.pi

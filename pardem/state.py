@@ -170,8 +170,8 @@ def join_rows(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
 def pack_rows(rows: dict[str, np.ndarray], idx: np.ndarray) -> np.ndarray:
     """Rows ``idx`` of every array as one float64 matrix [len(idx), columns] (for messages:
     integer ids and kinds are exact in float64 below 2**53)."""
-    return np.concatenate([v[idx].reshape(idx.size, -1) for v in rows.values()], axis=1,
-                          dtype=np.float64)
+    return np.concatenate([v[idx].reshape(idx.size, math.prod(v.shape[1:]))
+                           for v in rows.values()], axis=1, dtype=np.float64)
 
 
 def unpack_rows(m: np.ndarray, like: dict[str, np.ndarray]) -> dict[str, np.ndarray]:

@@ -111,40 +111,43 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx, work):
     n_pairs = pairs.count[0]
     for first in range(0, n_pairs, BATCH):
         m = min(BATCH, n_pairs - first)
-        for q in range(m):
-            kk = np.uint64(first + q)
+        for ln in range(m):
+            kk = np.uint64(first + ln)
             ii = np.uint64(pi[kk])
             jj = np.uint64(pj[kk])
-            work[W_DX * BATCH + q] = gx[ii + ii] - gx[jj + jj]
-            work[W_DY * BATCH + q] = gx[ii + ii + one] - gx[jj + jj + one]
-            work[W_AI * BATCH + q] = ga[ii]
-            work[W_AJ * BATCH + q] = ga[jj]
-            work[W_DVX * BATCH + q] = gv[ii + ii] - gv[jj + jj]
-            work[W_DVY * BATCH + q] = gv[ii + ii + one] - gv[jj + jj + one]
-            work[W_WI * BATCH + q] = gw[ii] if rotation else 0.0
-            work[W_WJ * BATCH + q] = gw[jj] if rotation else 0.0
-            work[W_XIX * BATCH + q] = sxi[kk + kk] if friction else 0.0
-            work[W_XIY * BATCH + q] = sxi[kk + kk + one] if friction else 0.0
-        for q in range(BATCH):  # lanes past m hold stale, finite inputs
-            lane_law(work, q, reach, prm, fx, True)
-        # A plain loop over the lanes "if redo" would be vectorised with every lane computed;
-        # through a list of lanes it stays scalar.
+            work[W_DX * BATCH + ln] = gx[ii + ii] - gx[jj + jj]
+            work[W_DY * BATCH + ln] = gx[ii + ii + one] - gx[jj + jj + one]
+            work[W_AI * BATCH + ln] = ga[ii]
+            work[W_AJ * BATCH + ln] = ga[jj]
+            work[W_DVX * BATCH + ln] = gv[ii + ii] - gv[jj + jj]
+            work[W_DVY * BATCH + ln] = gv[ii + ii + one] - gv[jj + jj + one]
+            work[W_WI * BATCH + ln] = gw[ii] if rotation else 0.0
+            work[W_WJ * BATCH + ln] = gw[jj] if rotation else 0.0
+            work[W_XIX * BATCH + ln] = sxi[kk + kk] if friction else 0.0
+            work[W_XIY * BATCH + ln] = sxi[kk + kk + one] if friction else 0.0
+        for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
+            touching, flagged = lane_law(work, ln, reach, prm, fx, True)
+            work[W_ACT * BATCH + ln] = 1.0 if touching else 0.0
+            work[W_REDO * BATCH + ln] = 1.0 if flagged else 0.0
+        # A plain loop over the lanes "if flagged" would be vectorised with every lane computed;
+        # through a list of lanes it stays scalar. (Loop names differ from the inlined
+        # callees' names: see jit.py.)
         n_redo = 0
-        for q in range(m):
-            if work[W_REDO * BATCH + q] != 0.0:
-                work[W_LANE * BATCH + n_redo] = q
+        for ln in range(m):
+            if work[W_REDO * BATCH + ln] != 0.0:
+                work[W_LANE * BATCH + n_redo] = ln
                 n_redo += 1
-        for r in range(n_redo):
-            lane_law(work, int(work[W_LANE * BATCH + r]), reach, prm, fx, False)
+        for nr in range(n_redo):
+            lane_law(work, int(work[W_LANE * BATCH + nr]), reach, prm, fx, False)
         cur = np.uint64(pi[first])
         acc_x = sf[cur + cur]
         acc_y = sf[cur + cur + one]
         acc_t = st[cur]
-        for q in range(m):
-            kk = np.uint64(first + q)
+        for ln in range(m):
+            kk = np.uint64(first + ln)
             if friction:  # a pair that does not touch comes back with xi = 0
-                sxi[kk + kk] = work[W_XOX * BATCH + q]
-                sxi[kk + kk + one] = work[W_XOY * BATCH + q]
+                sxi[kk + kk] = work[W_XOX * BATCH + ln]
+                sxi[kk + kk + one] = work[W_XOY * BATCH + ln]
             ii = np.uint64(pi[kk])
             if ii != cur:
                 sf[cur + cur] = acc_x
@@ -154,15 +157,15 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx, work):
                 acc_x = sf[cur + cur]
                 acc_y = sf[cur + cur + one]
                 acc_t = st[cur]
-            if work[W_ACT * BATCH + q] != 0.0:
+            if work[W_ACT * BATCH + ln] != 0.0:
                 jj = np.uint64(pj[kk])
-                acc_x += work[W_FX * BATCH + q]
-                acc_y += work[W_FY * BATCH + q]
-                sf[jj + jj] -= work[W_FX * BATCH + q]
-                sf[jj + jj + one] -= work[W_FY * BATCH + q]
+                acc_x += work[W_FX * BATCH + ln]
+                acc_y += work[W_FY * BATCH + ln]
+                sf[jj + jj] -= work[W_FX * BATCH + ln]
+                sf[jj + jj + one] -= work[W_FY * BATCH + ln]
                 if rotation:
-                    acc_t += work[W_TI * BATCH + q]
-                    st[jj] += work[W_TJ * BATCH + q]
+                    acc_t += work[W_TI * BATCH + ln]
+                    st[jj] += work[W_TJ * BATCH + ln]
         sf[cur + cur] = acc_x
         sf[cur + cur + one] = acc_y
         st[cur] = acc_t
@@ -172,21 +175,21 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx, work):
 
 @nb.njit(**INLINE)
 def lane_law(work, lane, reach, prm, fx, defer):
-    """pair_force on one lane of the work rows (see forces), outputs written back there."""
+    """pair_force on one lane of the work rows (see forces): forces, torques and spring written
+    back there; returns ``(active, flagged)`` (flagged: deferred, redo without ``defer``)."""
     damping, friction, clip, _, _, _, window = fx
-    act, fxl, fyl, til, tjl, xoxl, xoyl, redo = pair_force(
+    act, fxl, fyl, til, tjl, xoxl, xoyl, again = pair_force(
         work[W_DX * BATCH + lane], work[W_DY * BATCH + lane], work[W_AI * BATCH + lane],
         work[W_AJ * BATCH + lane], work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane],
         work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane], work[W_XIX * BATCH + lane],
         work[W_XIY * BATCH + lane], reach, prm, damping, friction, clip, window, defer)
-    work[W_ACT * BATCH + lane] = 1.0 if act else 0.0
     work[W_FX * BATCH + lane] = fxl
     work[W_FY * BATCH + lane] = fyl
     work[W_TI * BATCH + lane] = til
     work[W_TJ * BATCH + lane] = tjl
     work[W_XOX * BATCH + lane] = xoxl
     work[W_XOY * BATCH + lane] = xoyl
-    work[W_REDO * BATCH + lane] = 1.0 if redo else 0.0
+    return act, again
 
 
 @nb.njit(**INLINE)
@@ -321,7 +324,9 @@ def drift(ps, clock, prm, fx, scratch):
         settled = outer_ring_settled(t, prm)
         place_wall_disks(ps, n_move, clock.n_local[0], t, prm, settled)
         for i in range(n_move, clock.n_local[0]):
-            if settled and ps.kind[i] == OUTER_WALL:  # at rest where the last build saw them
+            # settled outer disks: at rest at their final radius; whatever they moved since the
+            # last build is in ring_move below
+            if settled and ps.kind[i] == OUTER_WALL:
                 continue
             vp[2 * i] = v[2 * i]  # prescribed: exact
             vp[2 * i + 1] = v[2 * i + 1]

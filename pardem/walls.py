@@ -31,9 +31,10 @@ def outer_radius(t, prm):
 @nb.njit(**JIT)
 def outer_ring_settled(t, prm):
     """True at time t (s) if the outer ring's disks already sit at rest at their final radius:
-    the step loop placed them at the previous step, after the compression (one step of slack
-    against rounding of t). From then on placing them again would write the same bits."""
-    return t > 1.5 * prm.dt and t - 2.0 * prm.dt >= prm.t_comp
+    the step loop placed them at an earlier step after the compression (t - 2 dt >= t_comp:
+    one step of slack against rounding of t; it also means step >= 2, so that earlier placement
+    was the loop's, not the initial layout's). Placing them again would write the same bits."""
+    return t - 2.0 * prm.dt >= prm.t_comp
 
 
 @nb.njit(**JIT)

@@ -30,7 +30,7 @@ def free_scene(particles, effects=None, contact=None, time=None, name="test", ne
 
 
 def couette_scene(counts=(2545, 394), geometry=None, effects=None, time=None, output=None,
-                  name="couette-test", averaging=None):
+                  name="couette-test", averaging=None, neighbors=None):
     d = {"scene": {"name": name, "kind": "couette", "seed": 3},
          "geometry": {**(geometry or {})},
          "species": [{"name": "small", "diameter": D_SMALL, "mass": M_SMALL, "count": counts[0]},
@@ -41,6 +41,8 @@ def couette_scene(counts=(2545, 394), geometry=None, effects=None, time=None, ou
         d["output"] = output
     if averaging:
         d["averaging"] = averaging
+    if neighbors:
+        d["neighbors"] = neighbors
     if d["species"][1]["count"] == 0:
         d["species"].pop()
     return scene_from_dict(d)

@@ -24,6 +24,28 @@ def test_verlet_list_always_holds_every_touching_pair():
     assert sim.n_rebuilds > 3
 
 
+def test_trajectory_does_not_depend_on_the_skin():
+    """Only pairs that touch (or are within half a step of it) act, and each particle adds its
+    contacts in gid order, so the skin decides how often the list is rebuilt and how many idle
+    pairs it holds, but not one bit of the trajectory (compression, shear, many rebuilds)."""
+    runs = []
+    for skin in (0.2e-3, None, 3e-3):  # None: "auto", 0.1 d_small = 0.74 mm
+        geometry = {"outer_start_radius": 0.17, "outer_radius": 0.138, "compression_time": 0.2}
+        sim = Simulation(couette_scene(counts=(400, 60), geometry=geometry,
+                                       neighbors={"skin": skin} if skin else None))
+        sim.advance_steps(12000)
+        n = int(sim.clock.n_local[0])
+        o = np.argsort(sim.ps.gid[:n])
+        runs.append((sim.n_rebuilds, [a[:n][o] for a in (sim.ps.x, sim.ps.v, sim.ps.omega,
+                                                         sim.ps.xi_wall)],
+                     sim._spring_history()))
+    assert runs[0][0] > runs[1][0] > runs[2][0] > 1
+    assert runs[0][2][0].size > 300  # loaded contacts, not a dilute gas
+    for _, arrays, springs in runs[1:]:
+        for a, b in zip(arrays + list(springs), runs[0][1] + list(runs[0][2])):
+            np.testing.assert_array_equal(a, b)
+
+
 @pytest.fixture(scope="module")
 def sheared_b():
     """Scene B (the paper's counts and cell), compressed in 2 s, relaxed and sheared to t = 5 s

@@ -11,6 +11,7 @@ from pardem.state import FREE, new_particles, pack_rows, particle_fields, unpack
 
 EDGE_SETS = {
     "2 ranks, one wedge wider than pi": [-2.0, 2.4],
+    "2 ranks, wedges of exactly pi": [-math.pi, 0.0],
     "3 ranks": [-3.0, -1.0, 1.5],
     "4 ranks, one wedge 0.01 rad": [-1.0, -0.99, 0.5, 2.0],
 }
@@ -67,9 +68,9 @@ def test_packed_rows_come_back_unchanged(friction):
             v[...] = rng.normal(size=v.shape) * 10.0 ** rng.integers(-300, 300, v.shape)
     ps.gid[:] = rng.integers(0, 2**53, 50)  # ids are exact in float64 up to 2**53
     ps.kind[:] = rng.integers(FREE, 3, 50)
-    idx = np.array([7, 3, 3, 49, 0])
-    back = unpack_rows(pack_rows(rows, idx), rows)
-    assert list(back) == list(rows)
-    for k, v in rows.items():
-        assert back[k].dtype == v.dtype and back[k].shape == (idx.size,) + v.shape[1:]
-        np.testing.assert_array_equal(back[k], v[idx])
+    for idx in (np.array([7, 3, 3, 49, 0]), np.zeros(0, np.int64)):
+        back = unpack_rows(pack_rows(rows, idx), rows)
+        assert list(back) == list(rows)
+        for k, v in rows.items():
+            assert back[k].dtype == v.dtype and back[k].shape == (idx.size,) + v.shape[1:]
+            np.testing.assert_array_equal(back[k], v[idx])
