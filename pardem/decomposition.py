@@ -137,8 +137,9 @@ class Decomposition:
         comm, rank, size = self.comm, self.rank, self.size
         width = sum(math.prod(v.shape[1:]) for v in own.values())  # doubles per row
         owner = self.sectors.owner(own["x"], rank)
+        mine = owner == rank
         outgoing: list = [None] * size
-        for r in np.unique(owner[owner != rank]):
+        for r in np.unique(owner[~mine]):
             idx = np.flatnonzero(owner == r)
             springs = np.zeros((0, 4))
             if history is not None:
@@ -149,8 +150,7 @@ class Decomposition:
                                           pack_rows(own, idx).ravel(), springs.ravel()])
         arrivals = [_unpack_migrants(buf, width, own) for buf in self._alltoall(outgoing)
                     if buf is not None]
-        if arrivals or np.any(owner != rank):  # otherwise own is unchanged (and sorted)
-            mine = owner == rank
+        if arrivals or not mine.all():  # otherwise own is unchanged (and sorted)
             own = join_rows([{k: v[mine] for k, v in own.items()}] + [a[0] for a in arrivals])
             order = np.argsort(own["gid"], kind="stable")
             own = {k: v[order] for k, v in own.items()}
