@@ -26,7 +26,7 @@ from mpi4py import MPI
 from . import sectors as sec
 from .mpi_native import Halo, make_halo, serial_halo
 from .scene import SceneError
-from .state import join_rows, pack_rows, unpack_rows
+from .state import join_rows, packed, row_columns, row_width
 
 History = tuple[np.ndarray, np.ndarray, np.ndarray]  # (gid_lo, gid_hi, xi [m,2]) sorted by key
 HIST_BINS = 4096
@@ -127,54 +127,61 @@ class Decomposition:
         self.n_rebalanced += 1
 
     # -- neighbour build -------------------------------------------------------------------
-    def distribute(self, own: dict[str, np.ndarray], history: History | None):
-        """Migrate owned particles that left the sector (with their springs) and exchange ghosts.
-        Returns ``(own, ghosts, history)``: owned rows sorted by gid, ghost rows, and the merged
+    def distribute(self, ps, n_move: int, friction: bool, history: History | None):
+        """Migrate owned particles (the first n_move rows of ps) that left the sector, with
+        their springs, and exchange ghosts. Returns ``(own, ghosts, history)``: the owned rows
+        sorted by gid as a packed matrix (``state.packed``), or None if no particle left or
+        arrived (then ps[:n_move] is still right), the ghost rows (packed), and the merged
         spring history; sets ``self.halo`` for the ghosts' per-step refresh.
 
-        Rows travel packed into float64 buffers (``pack_rows``), one ``Alltoallv`` per round:
-        pickling a dict of arrays per message cost more than the rest of the build."""
+        Rows travel and are rearranged as packed float64 matrices, one ``Alltoallv`` per
+        round: at a build the interpreter's caches are cold and every numpy call costs
+        several us, so one call per matrix instead of one per particle array matters."""
         comm, rank, size = self.comm, self.rank, self.size
-        width = sum(math.prod(v.shape[1:]) for v in own.values())  # doubles per row
-        owner = self.sectors.owner(own["x"], rank)
+        cols = row_columns(friction)
+        width = row_width(friction)
+        gid_col, x_cols = cols["gid"].start, cols["x"]
+        owner = self.sectors.owner(ps.x[:n_move], rank)
         mine = owner == rank
         outgoing: list = [None] * size
         for r in np.unique(owner[~mine]):
             idx = np.flatnonzero(owner == r)
             springs = np.zeros((0, 4))
             if history is not None:
-                gids = own["gid"][idx]
+                gids = ps.gid[idx]
                 h = np.isin(history[0], gids) | np.isin(history[1], gids)
                 springs = np.column_stack([history[0][h], history[1][h], history[2][h]])
             outgoing[r] = np.concatenate([[idx.size, springs.shape[0]],
-                                          pack_rows(own, idx).ravel(), springs.ravel()])
-        arrivals = [_unpack_migrants(buf, width, own) for buf in self._alltoall(outgoing)
+                                          packed(ps, idx, friction).ravel(), springs.ravel()])
+        arrivals = [_unpack_migrants(buf, width) for buf in self._alltoall(outgoing)
                     if buf is not None]
-        if arrivals or not mine.all():  # otherwise own is unchanged (and sorted)
-            own = join_rows([{k: v[mine] for k, v in own.items()}] + [a[0] for a in arrivals])
-            order = np.argsort(own["gid"], kind="stable")
-            own = {k: v[order] for k, v in own.items()}
-            self.n_migrated += sum(a[0]["gid"].shape[0] for a in arrivals)
+        own = None
+        if arrivals or not mine.all():
+            own = np.concatenate([packed(ps, np.flatnonzero(mine), friction)]
+                                 + [a[0] for a in arrivals])
+            own = own[np.argsort(own[:, gid_col], kind="stable")]
+            self.n_migrated += sum(a[0].shape[0] for a in arrivals)
             if history is not None:
                 history = merge_history([history] + [a[1] for a in arrivals])
+        x_own = ps.x[:n_move] if own is None else own[:, x_cols]
 
         send_idx: dict[int, np.ndarray] = {}
         outgoing = [None] * size
         for r in range(size):
             if r == rank:
                 continue
-            idx = np.flatnonzero(self.sectors.distance(own["x"], r) < self.ghost_width)
+            idx = np.flatnonzero(self.sectors.distance(x_own, r) < self.ghost_width)
             if idx.size:
                 send_idx[r] = idx
-                outgoing[r] = pack_rows(own, idx).ravel()
+                outgoing[r] = (packed(ps, idx, friction) if own is None else own[idx]).ravel()
         recv = {r: buf.reshape(-1, width) for r, buf in enumerate(self._alltoall(outgoing))
                 if buf is not None}
         nbr = sorted(set(send_idx) | set(recv))
         empty = np.zeros(0, np.int64)
         send_list = [send_idx.get(r, empty) for r in nbr]
         recv_counts = [recv[r].shape[0] if r in recv else 0 for r in nbr]
-        ghosts = unpack_rows(np.concatenate([recv[r] for r in nbr if r in recv])
-                             if recv else np.zeros((0, width)), own)
+        ghosts = (np.concatenate([recv[r] for r in nbr if r in recv]) if recv
+                  else np.zeros((0, width)))
         # Header maxima are global only if every rank talks to every other one. On 2 ranks
         # both know: each is the other's neighbour or neither is.
         use_allreduce = len(nbr) < size - 1
@@ -223,11 +230,11 @@ class Decomposition:
                 f"ghost width {self.ghost_width * 1e3:.2f} mm")
 
 
-def _unpack_migrants(buf: np.ndarray, width: int, like: dict[str, np.ndarray]):
-    """A migration message -> (rows, springs): [n, m, n rows of ``width``, m springs (lo, hi,
-    xi_x, xi_y)]."""
+def _unpack_migrants(buf: np.ndarray, width: int):
+    """A migration message -> (packed rows, springs): [n, m, n rows of ``width``, m springs
+    (lo, hi, xi_x, xi_y)]."""
     n, m = int(buf[0]), int(buf[1])
-    rows = unpack_rows(buf[2:2 + n * width].reshape(n, width), like)
+    rows = buf[2:2 + n * width].reshape(n, width)
     sp = buf[2 + n * width:].reshape(m, 4)
     return rows, (sp[:, 0].astype(np.int64), sp[:, 1].astype(np.int64), sp[:, 2:].copy())
 

@@ -30,8 +30,8 @@ from .output.checkpoint import ARRAYS, load_checkpoint, save_checkpoint
 from .output.snapshots import write_snapshot
 from .placement import initial_configuration
 from .scene import Scene, SceneError, write_scene
-from .state import (FREE, Pairs, Params, join_rows, new_clock, new_pairs, new_particles,
-                    particle_fields, particles_from_rows, take_rows)
+from .state import (FREE, Pairs, Params, new_clock, new_pairs, new_particles, packed,
+                    unpack_particles)
 from .stepper import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
 from .walls import outer_radius
@@ -101,11 +101,12 @@ class Simulation:
         self.decomp.place_sectors(ps.x[:init.n_free])
         owner = self.decomp.sectors.owner(ps.x[:init.n_free])
         mine = np.flatnonzero(owner == self.decomp.rank)
-        rows = join_rows([take_rows(ps, mine, self.friction),
-                          take_rows(ps, np.arange(init.n_free, n), self.friction)])
-        self.ps = particles_from_rows(rows, rows["gid"].size, self.friction)
+        rows = np.concatenate([packed(ps, mine, self.friction),
+                               packed(ps, np.arange(init.n_free, n), self.friction)])
+        self.ps = new_particles(rows.shape[0], self.friction)
+        unpack_particles(rows, self.ps, 0)
         self.clock.n_move[0] = mine.size
-        self.clock.n_local[0] = rows["gid"].size
+        self.clock.n_local[0] = rows.shape[0]
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.friction)
         self._rebuild(history=history, rebalance=False)
         if restart is None:
@@ -163,28 +164,24 @@ class Simulation:
         rows out again as [owned | wall disks | ghosts]. At most builds nothing migrates; then
         the owned rows and wall disks stay where they are and only the ghost rows are written.
         Returns the spring history with the migrants' springs merged in."""
-        clock, ps = self.clock, self.ps
+        clock, ps, friction = self.clock, self.ps, self.friction
         n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        own = {k: getattr(ps, k)[:n_move] for k in particle_fields(self.friction)}  # views
         if rebalance:
-            self.decomp.rebalance(own["x"])
-        moved, ghosts, history = self.decomp.distribute(own, history)
-        n_ghost = ghosts["gid"].size
-        if moved is own and n_local + n_ghost <= ps.gid.size:
-            for k, v in ghosts.items():
-                getattr(ps, k)[n_local:n_local + n_ghost] = v
+            self.decomp.rebalance(ps.x[:n_move])
+        own, ghosts, history = self.decomp.distribute(ps, n_move, friction, history)
+        if own is None and n_local + ghosts.shape[0] <= ps.gid.size:
+            unpack_particles(ghosts, ps, n_local)
         else:
-            walls = take_rows(ps, np.arange(n_move, n_local), self.friction)
-            rows = join_rows([moved, walls, ghosts])  # copies: safe to overwrite ps below
-            need = rows["gid"].size
-            if need <= ps.gid.size:
-                for k, v in rows.items():
-                    getattr(ps, k)[:need] = v
-            else:
-                self.ps = particles_from_rows(rows, int(1.25 * need), self.friction)
-            clock.n_move[0] = moved["gid"].size
-            clock.n_local[0] = moved["gid"].size + n_local - n_move
-        clock.n_ghost[0] = n_ghost
+            if own is None:
+                own = packed(ps, np.arange(n_move), friction)
+            rows = np.concatenate([own, packed(ps, np.arange(n_move, n_local), friction),
+                                   ghosts])  # copies: safe to overwrite ps below
+            if rows.shape[0] > ps.gid.size:
+                self.ps = ps = new_particles(int(1.25 * rows.shape[0]), friction)
+            unpack_particles(rows, ps, 0)
+            clock.n_move[0] = own.shape[0]
+            clock.n_local[0] = own.shape[0] + n_local - n_move
+        clock.n_ghost[0] = ghosts.shape[0]
         return history
 
     def _spring_history(self):

@@ -3,13 +3,14 @@ and start-up cost.
 
     python run_scripts/bench.py [--steps 20000] [--repeats 5] [--ranks 1 2] [--startup]
 
-Compresses scene B once (t = 0 .. 2.5 s, not timed) and checkpoints it. Then, for each rank
-count, times ``--repeats`` runs of ``--steps`` shear steps, each a fresh ``mpiexec -n P`` job
-restarted from that checkpoint (NUMBA_NUM_THREADS=1, one core per rank; the clock starts after
-10 warm-up steps and stops at the last step of the slowest rank). Prints every run, the median,
-rank 0's per-stage breakdown and the 2-rank speed-up. ``--startup`` also measures `pardem run`
-from process start to the first step, with an empty numba cache (cold) and again with the cache
-filled (warm).
+Compresses scene B once (t = 0 .. 2.5 s, not timed) and checkpoints it. Then times
+``--repeats`` rounds of ``--steps`` shear steps, each round one run per rank count (in turn),
+each run a fresh ``mpiexec -n P`` job restarted from that checkpoint (NUMBA_NUM_THREADS=1, one
+core per rank; the clock starts after 10 warm-up steps and stops at the last step of the
+slowest rank). Prints every run, the median, rank 0's per-stage breakdown and the 2-rank
+speed-up (ratio of the medians, and the median of the per-round ratios). ``--startup`` also
+measures `pardem run` from process start to the first step, with an empty numba cache (cold)
+and again with the cache filled (warm).
 """
 
 from __future__ import annotations
@@ -74,42 +75,52 @@ def worker(ckpt: str, steps: int) -> None:
 
 
 def throughput(steps: int, repeats: int, ranks: list[int]) -> dict[int, float]:
-    """Median flow-particle-steps/s for each rank count (also printed, with every run)."""
+    """Median flow-particle-steps/s for each rank count (also printed, with every run).
+
+    The rank counts take turns (round k runs every count once), so that the machine's slow
+    drifts (a shared VM: +-15 % over minutes) hit every count alike; the speed-up is also given
+    as the median of the per-round ratios, each from runs a few seconds apart."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     mpiexec = Path(sys.executable).parent / "mpiexec"
-    medians = {}
+    rates: dict[int, list[float]] = {p: [] for p in ranks}
+    last: dict[int, dict] = {}
     with tempfile.TemporaryDirectory() as tmp:
         ckpt = Path(tmp) / "compressed.h5"
         compress(ckpt)
-        for p in ranks:
-            rates = []
-            for k in range(repeats):
+        for k in range(repeats):
+            for p in ranks:
                 out = subprocess.run(
                     [str(mpiexec), "-n", str(p), sys.executable, "-m", "mpi4py", __file__,
                      "--worker", str(ckpt), "--steps", str(steps)],
                     check=True, capture_output=True, text=True, env=env, timeout=3600)
-                res = json.loads(out.stdout.strip().splitlines()[-1])
-                rates.append(res["n_free"] * steps / res["wall"])
+                res = last[p] = json.loads(out.stdout.strip().splitlines()[-1])
+                rates[p].append(res["n_free"] * steps / res["wall"])
                 print(f"{p} rank(s), run {k + 1}: {steps} steps in {res['wall']:.3f} s -> "
-                      f"{rates[-1] / 1e6:.2f} M flow-particle-steps/s ({steps / res['wall']:.0f} "
+                      f"{rates[p][-1] / 1e6:.2f} M flow-particle-steps/s ({steps / res['wall']:.0f} "
                       f"steps/s, {res['rebuilds']} neighbour builds, ghosts per rank "
                       f"{res['ghosts']})", flush=True)
-            print(res["breakdown"])
-            print("  rank  owned  ghosts  pairs  nbrs  sent/step  bytes sent/step  msgs/step  "
-                  "step us  (waiting)  rebuild us/step")
-            for r, d in enumerate(res["ranks"]):
-                nbytes = 8 * (3 * d["neighbours"] + 5 * d["sent"])
-                msgs = 2 * d["neighbours"] + (1 if d["allreduce"] else 0)
-                print(f"  {r:4d} {d['owned']:6d} {d['ghosts']:7d} {d['pairs']:6d} "
-                      f"{d['neighbours']:5d} {d['sent']:10d} {nbytes:16d} {msgs:10d} "
-                      f"{d['step_us']:8.1f} {d['wait_us']:10.1f} {d['rebuild_us']:16.1f}")
-            medians[p] = statistics.median(rates)
-            print(f"couette_B, {res['n_free']} flow particles, {p} rank(s): median "
-                  f"{medians[p] / 1e6:.2f} M flow-particle-steps/s over {repeats} runs", flush=True)
+    medians = {}
+    for p in ranks:
+        res = last[p]
+        print(res["breakdown"])
+        print("  rank  owned  ghosts  pairs  nbrs  sent/step  bytes sent/step  msgs/step  "
+              "step us  (waiting)  rebuild us/step")
+        for r, d in enumerate(res["ranks"]):
+            nbytes = 8 * (3 * d["neighbours"] + 5 * d["sent"])
+            msgs = 2 * d["neighbours"] + (1 if d["allreduce"] else 0)
+            print(f"  {r:4d} {d['owned']:6d} {d['ghosts']:7d} {d['pairs']:6d} "
+                  f"{d['neighbours']:5d} {d['sent']:10d} {nbytes:16d} {msgs:10d} "
+                  f"{d['step_us']:8.1f} {d['wait_us']:10.1f} {d['rebuild_us']:16.1f}")
+        medians[p] = statistics.median(rates[p])
+        print(f"couette_B, {res['n_free']} flow particles, {p} rank(s): median "
+              f"{medians[p] / 1e6:.2f} M flow-particle-steps/s over {repeats} runs", flush=True)
     if 1 in medians:
         for p in medians:
             if p > 1:
-                print(f"speed-up on {p} ranks: {medians[p] / medians[1]:.2f}")
+                per_round = [a / b for a, b in zip(rates[p], rates[1])]
+                print(f"speed-up on {p} ranks: {medians[p] / medians[1]:.2f} (ratio of the "
+                      f"medians); per round: {', '.join(f'{x:.2f}' for x in per_round)}, "
+                      f"median {statistics.median(per_round):.2f}")
     return medians
 
 

@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 
 from pardem import sectors
-from pardem.state import FREE, new_particles, pack_rows, particle_fields, unpack_rows
+from pardem.state import (FREE, new_particles, packed, particle_fields, row_columns, row_width,
+                          unpack_particles)
 
 EDGE_SETS = {
     "2 ranks, one wedge wider than pi": [-2.0, 2.4],
@@ -62,15 +63,23 @@ def test_distance_is_to_the_nearest_boundary_ray(name):
 def test_packed_rows_come_back_unchanged(friction):
     ps = new_particles(50, friction)
     rng = np.random.default_rng(5)
-    rows = {k: getattr(ps, k) for k in particle_fields(friction)}
-    for k, v in rows.items():
+    for k in particle_fields(friction):
+        v = getattr(ps, k)
         if v.dtype == np.float64:
             v[...] = rng.normal(size=v.shape) * 10.0 ** rng.integers(-300, 300, v.shape)
     ps.gid[:] = rng.integers(0, 2**53, 50)  # ids are exact in float64 up to 2**53
     ps.kind[:] = rng.integers(FREE, 3, 50)
+    cols = row_columns(friction)
     for idx in (np.array([7, 3, 3, 49, 0]), np.zeros(0, np.int64)):
-        back = unpack_rows(pack_rows(rows, idx), rows)
-        assert list(back) == list(rows)
-        for k, v in rows.items():
-            assert back[k].dtype == v.dtype and back[k].shape == (idx.size,) + v.shape[1:]
-            np.testing.assert_array_equal(back[k], v[idx])
+        rows = packed(ps, idx, friction)
+        assert rows.shape == (idx.size, row_width(friction))
+        for k, c in cols.items():  # each array in its documented columns
+            v = getattr(ps, k)
+            np.testing.assert_array_equal(rows[:, c].reshape((idx.size,) + v.shape[1:]), v[idx])
+        back = new_particles(idx.size + 4, friction)
+        unpack_particles(rows, back, 2)
+        for k in particle_fields(friction):
+            assert getattr(back, k).dtype == getattr(ps, k).dtype
+            np.testing.assert_array_equal(getattr(back, k)[2:2 + idx.size], getattr(ps, k)[idx])
+            assert not getattr(back, k)[:2].any() and not getattr(back, k)[2 + idx.size:].any()
+    assert not friction or cols["xi_wall"].stop == row_width(True)
