@@ -322,8 +322,8 @@ def drift(ps, clock, prm, fx, scratch):
     if walls:
         t = clock.step[0] * dt
         settled = outer_ring_settled(t, prm)
-        place_wall_disks(ps, n_move, clock.n_local[0], t, prm, settled)
-        for i in range(n_move, clock.n_local[0]):
+        place_wall_disks(ps, n_move, clock.n_moved[0], t, prm, settled)
+        for i in range(n_move, clock.n_moved[0]):
             # settled outer disks: at rest at their final radius; whatever they moved since the
             # last build is in ring_move below
             if settled and ps.kind[i] == OUTER_WALL:

@@ -37,7 +37,10 @@ def test_couette_quick_is_bitwise_identical_on_1_2_3_4_ranks(tmp_path):
     for n in (2, 3, 4):
         got = dump_state(QUICK, steps, tmp_path / f"r{n}.npz", n)
         assert got["migrated"] >= 20, f"{n} ranks: only {got['migrated']} migrations"
+        # each rank moves only the wall disks near its sector, and no pair needs another one
+        assert got["idle_walls"] > 0 and got["idle_wall_pairs"] == 0
         assert_same_state(ref, got, f"{n} ranks vs 1")
+    assert ref["idle_walls"] == 0
 
 
 def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):

@@ -4,7 +4,9 @@
         [--checkpoint-at STEP CKPT]
 
 Rank 0 writes OUT.npz with every particle array and the springs (sorted by gid), plus the run's
-migration and rebuild counts; the tests compare these files between rank counts.
+migration and rebuild counts and, summed over the ranks, the wall disks a rank does not move
+and the listed pairs that involve one of those (must be none); the tests compare these files
+between rank counts.
 """
 
 import argparse
@@ -33,9 +35,18 @@ def main():
     sim.advance_steps(args.steps - int(sim.clock.step[0]))
     arrays, attrs = sim.checkpoint_state() or (None, None)
     migrated = comm.allreduce(sim.decomp.n_migrated)
+    # wall disks this rank does not move, and listed pairs that would need one of them
+    c, pr = sim.clock, sim.pairs
+    idle = slice(int(c.n_moved[0]), int(c.n_local[0]))
+    k = pr.count[0]
+    in_idle = ((pr.i[:k] >= idle.start) & (pr.i[:k] < idle.stop)) | (
+        (pr.j[:k] >= idle.start) & (pr.j[:k] < idle.stop))
+    idle_walls = comm.allreduce(idle.stop - idle.start)
+    idle_pairs = comm.allreduce(int(in_idle.sum()))
     if comm.rank == 0:
         np.savez(args.out, **arrays, step=attrs["step"], migrated=migrated,
-                 rebuilds=sim.n_rebuilds, rebalanced=sim.decomp.n_rebalanced)
+                 rebuilds=sim.n_rebuilds, rebalanced=sim.decomp.n_rebalanced,
+                 idle_walls=idle_walls, idle_wall_pairs=idle_pairs)
 
 
 if __name__ == "__main__":
