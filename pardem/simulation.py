@@ -31,10 +31,10 @@ from .output.snapshots import write_snapshot
 from .placement import initial_configuration
 from .scene import Scene, SceneError, write_scene
 from .state import (FREE, Pairs, Params, new_clock, new_pairs, new_particles, packed,
-                    unpack_particles)
+                    row_width, unpack_particles)
 from .stepper import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
-from .walls import outer_radius, place_wall_disks
+from .walls import arrange_walls, outer_radius, place_wall_disks
 
 
 class SimulationError(RuntimeError):
@@ -65,6 +65,7 @@ class Simulation:
                        "snapshots": 0.0, "checkpoints": 0.0, "progress": 0.0}
         self.rings = None  # the in-situ RingAverager ([averaging] table), kept across run() calls
         self.n_rebuilds = 0
+        self._wall_margin = None  # see _order_walls
         g = scene.geometry
         c = scene.contact
         skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
@@ -166,7 +167,7 @@ class Simulation:
         Returns the spring history with the migrants' springs merged in."""
         clock, ps, friction = self.clock, self.ps, self.friction
         n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        self._place_idle_walls()  # all wall disks at the current time (moved with the rows)
+        idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
         if rebalance:
             self.decomp.rebalance(ps.x[:n_move])
         own, ghosts, history = self.decomp.distribute(ps, n_move, friction, history)
@@ -183,27 +184,26 @@ class Simulation:
             clock.n_move[0] = own.shape[0]
             clock.n_local[0] = own.shape[0] + n_local - n_move
         clock.n_ghost[0] = ghosts.shape[0]
-        self._order_walls()
+        self._order_walls(idle)  # the wall block keeps its order: the idle ones are still last
         return history
 
-    def _order_walls(self) -> None:
+    def _order_walls(self, idle: int) -> None:
         """Store the wall disks near this rank's sector first and let the step loop move only
         those (clock.n_moved): on 2 ranks the other half of the ~320 wall disks cost ~1 us per
         step for nothing. "Near": within the ghost width plus a wall diameter of the sector, so
         no owned particle can touch another wall disk before the next build (both move less
         than skin/2 until then). Every wall disk lies in some sector, so the ranks together
         still move all of them and the per-step maxima stay global. Redone at every build:
-        the inner ring carries its disks from sector to sector."""
+        the inner ring carries its disks from sector to sector. ``idle``: how many wall disks,
+        stored last, the step loop did not move (placed here first)."""
         clock, ps = self.clock, self.ps
         n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        walls = np.arange(n_move, n_local)  # all at the current time (_exchange placed them)
-        margin = self.decomp.ghost_width + 2.0 * float(ps.radius[walls].max(initial=0.0))
-        sec, rank = self.decomp.sectors, self.decomp.rank
-        near = (sec.owner(ps.x[walls], rank) == rank) | (sec.distance(ps.x[walls], rank) < margin)
-        n_near = int(near.sum())
-        if not near[:n_near].all():  # not yet stored near-first
-            order = np.concatenate([walls[near], walls[~near]])
-            unpack_particles(packed(ps, order, self.friction), ps, n_move)
+        if self._wall_margin is None:
+            walls = ps.radius[n_move:n_local]
+            self._wall_margin = self.decomp.ghost_width + 2.0 * float(walls.max(initial=0.0))
+        n_near = arrange_walls(ps, n_move, n_local - idle, n_local, self.time, self.prm,
+                               self.decomp.sectors.edges, self.decomp.rank, self._wall_margin,
+                               row_width(self.friction))
         clock.n_moved[0] = n_move + n_near
 
     def _place_idle_walls(self) -> None:

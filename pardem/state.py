@@ -16,6 +16,7 @@ Layout invariants
 
 from __future__ import annotations
 
+import functools
 from typing import NamedTuple
 
 import numba as nb
@@ -169,6 +170,7 @@ def join_rows(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
     return {k: np.concatenate([p[k] for p in parts]) for k in parts[0]}
 
 
+@functools.lru_cache(maxsize=None)
 def row_columns(friction: bool) -> dict[str, slice]:
     """Columns of each per-particle array in a packed row (``pack_particles``)."""
     cols, c = {}, 0
@@ -182,6 +184,7 @@ def row_columns(friction: bool) -> dict[str, slice]:
 ROW_PAIRS = ("x", "v", "f", "e0", "v_pred", "x_ref", "xi_wall")  # the [n,2] arrays
 
 
+@functools.lru_cache(maxsize=None)
 def row_width(friction: bool) -> int:
     """Columns of a packed row."""
     return sum(2 if k in ROW_PAIRS else 1 for k in particle_fields(friction))

@@ -15,7 +15,8 @@ import numba as nb
 import numpy as np
 
 from .jit import JIT
-from .state import INNER_WALL
+from .sectors import _distance, _owner
+from .state import INNER_WALL, pack_particles, unpack_particles
 
 
 @nb.njit(**JIT)
@@ -61,6 +62,31 @@ def place_wall_disks(ps, first, last, t, prm, settled):
             ps.v[k, 0] = r_o_dot * ex
             ps.v[k, 1] = r_o_dot * ey
             ps.omega[k] = 0.0
+
+
+@nb.njit(**JIT)
+def arrange_walls(ps, first, idle, end, t, prm, edges, rank, margin, width):
+    """Under MPI, at a neighbour build: place the idle wall disks ps[idle:end] at time t (the
+    step loop moved only ps[first:idle]), then store the wall disks ps[first:end] that are
+    within ``margin`` (m) of sector ``rank`` (edges: the sector edges, rad) or inside it first.
+    Returns how many that is. ``width``: columns of a packed row. One compiled call: at a
+    build, every call from Python that passes the particle arrays costs tens of us."""
+    place_wall_disks(ps, idle, end, t, prm, False)
+    x = ps.x[first:end]
+    near = (_owner(x, edges, rank) == rank) | (_distance(x, edges[rank], edges[rank + 1])
+                                                < margin)
+    n_near = 0
+    in_order = True
+    for k in range(near.size):
+        if near[k]:
+            in_order = in_order and n_near == k
+            n_near += 1
+    if not in_order:
+        order = np.concatenate((np.flatnonzero(near), np.flatnonzero(~near))) + first
+        rows = np.empty((order.size, width))
+        pack_particles(ps, order, rows)
+        unpack_particles(rows, ps, first)
+    return n_near
 
 
 def wall_disk_angles(radius: float, spacing: float) -> np.ndarray:
