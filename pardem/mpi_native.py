@@ -53,6 +53,7 @@ _I, _P = types.int32, types.intp
 mpi_irecv = types.ExternalFunction("MPI_Irecv", _I(_P, _I, _H, _I, _I, _H, _P))
 mpi_isend = types.ExternalFunction("MPI_Isend", _I(_P, _I, _H, _I, _I, _H, _P))
 mpi_waitall = types.ExternalFunction("MPI_Waitall", _I(_I, _P, _P))
+mpi_testall = types.ExternalFunction("MPI_Testall", _I(_I, _P, _P, _P))  # run_scripts only
 mpi_allreduce = types.ExternalFunction("MPI_Allreduce", _I(_P, _P, _I, _H, _H, _H))
 mpi_wtime = types.ExternalFunction("MPI_Wtime", types.float64())
 
