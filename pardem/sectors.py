@@ -75,6 +75,13 @@ def _owner(x, edges, guess):
 
 
 @nb.njit(**JIT)
+def near(x, edges, rank, margin):
+    """Mask of the points x [n,2] inside sector ``rank`` or within ``margin`` (m) of it."""
+    return (_owner(x, edges, rank) == rank) | (_distance(x, edges[rank], edges[rank + 1])
+                                               < margin)
+
+
+@nb.njit(**JIT)
 def _distance(x, angle0, angle1):
     out = np.empty(x.shape[0])
     c0, s0, c1, s1 = math.cos(angle0), math.sin(angle0), math.cos(angle1), math.sin(angle1)

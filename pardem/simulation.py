@@ -65,7 +65,6 @@ class Simulation:
                        "snapshots": 0.0, "checkpoints": 0.0, "progress": 0.0}
         self.rings = None  # the in-situ RingAverager ([averaging] table), kept across run() calls
         self.n_rebuilds = 0
-        self._wall_margin = None  # see _order_walls
         g = scene.geometry
         c = scene.contact
         skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
@@ -108,6 +107,9 @@ class Simulation:
         unpack_particles(rows, self.ps, 0)
         self.clock.n_move[0] = mine.size
         self.clock.n_local[0] = rows.shape[0]
+        # _order_walls: no owned particle gets this close to an idle wall disk between builds
+        self._wall_margin = self.decomp.ghost_width + 2.0 * float(
+            init.radius[init.n_free:].max(initial=0.0))
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.friction)
         self._rebuild(history=history, rebalance=False)
         if restart is None:
@@ -198,9 +200,6 @@ class Simulation:
         stored last, the step loop did not move (placed here first)."""
         clock, ps = self.clock, self.ps
         n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        if self._wall_margin is None:
-            walls = ps.radius[n_move:n_local]
-            self._wall_margin = self.decomp.ghost_width + 2.0 * float(walls.max(initial=0.0))
         n_near = arrange_walls(ps, n_move, n_local - idle, n_local, self.time, self.prm,
                                self.decomp.sectors.edges, self.decomp.rank, self._wall_margin,
                                row_width(self.friction))

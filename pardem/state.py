@@ -172,22 +172,20 @@ def join_rows(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
 
 @functools.lru_cache(maxsize=None)
 def row_columns(friction: bool) -> dict[str, slice]:
-    """Columns of each per-particle array in a packed row (``pack_particles``)."""
+    """Columns of each per-particle array in a packed row (``pack_particles``), in field
+    order; the widths come from the arrays' own row shapes."""
+    one = new_particles(1, friction)
     cols, c = {}, 0
     for k in particle_fields(friction):
-        w = 2 if k in ROW_PAIRS else 1
+        w = getattr(one, k)[0].size
         cols[k] = slice(c, c + w)
         c += w
     return cols
 
 
-ROW_PAIRS = ("x", "v", "f", "e0", "v_pred", "x_ref", "xi_wall")  # the [n,2] arrays
-
-
-@functools.lru_cache(maxsize=None)
 def row_width(friction: bool) -> int:
     """Columns of a packed row."""
-    return sum(2 if k in ROW_PAIRS else 1 for k in particle_fields(friction))
+    return next(reversed(row_columns(friction).values())).stop
 
 
 def packed(ps: Particles, idx: np.ndarray, friction: bool) -> np.ndarray:
@@ -224,5 +222,3 @@ def unpack_particles(rows, ps, at):
                 for r in range(rows.shape[0]):
                     a2[at + r, q] = rows[r, c + q]
             c += a2.shape[1]
-
-

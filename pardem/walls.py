@@ -15,7 +15,7 @@ import numba as nb
 import numpy as np
 
 from .jit import JIT
-from .sectors import _distance, _owner
+from .sectors import near
 from .state import INNER_WALL, pack_particles, unpack_particles
 
 
@@ -72,17 +72,10 @@ def arrange_walls(ps, first, idle, end, t, prm, edges, rank, margin, width):
     Returns how many that is. ``width``: columns of a packed row. One compiled call: at a
     build, every call from Python that passes the particle arrays costs tens of us."""
     place_wall_disks(ps, idle, end, t, prm, False)
-    x = ps.x[first:end]
-    near = (_owner(x, edges, rank) == rank) | (_distance(x, edges[rank], edges[rank + 1])
-                                                < margin)
-    n_near = 0
-    in_order = True
-    for k in range(near.size):
-        if near[k]:
-            in_order = in_order and n_near == k
-            n_near += 1
-    if not in_order:
-        order = np.concatenate((np.flatnonzero(near), np.flatnonzero(~near))) + first
+    close = near(ps.x[first:end], edges, rank, margin)
+    n_near = int(close.sum())
+    if not close[:n_near].all():  # not yet stored near-first
+        order = np.concatenate((np.flatnonzero(close), np.flatnonzero(~close))) + first
         rows = np.empty((order.size, width))
         pack_particles(ps, order, rows)
         unpack_particles(rows, ps, first)
