@@ -5,7 +5,6 @@ from __future__ import annotations
 import copy
 import math
 import re
-import time
 from pathlib import Path
 
 import h5py
@@ -196,16 +195,16 @@ def test_small_overlap_is_accepted_large_refused():
         scene_from_dict(d)
 
 
-def test_overlap_search_finds_pair_in_large_packing_quickly():
-    n_side = 320  # 102 400 disks on a square lattice, touching
+def test_overlap_search_finds_pair_in_large_packing():
+    """102 400 disks on a square lattice, touching. The search is binned (O(N)); a pairwise one
+    would take minutes here. How long it takes is not asserted: timings stay out of the tests."""
+    n_side = 320
     i, j = np.meshgrid(np.arange(n_side), np.arange(n_side), indexing="ij")
     x, y = (i.ravel() * D_S).astype(float), (j.ravel() * D_S).astype(float)
     rows = [{"x": a, "y": b, "diameter": D_S, "mass": M_S}
             for a, b in zip(x.tolist(), y.tolist(), strict=True)]
     d = {"scene": {"name": "big", "kind": "free"}, "particles": rows}
-    t0 = time.perf_counter()
     scene = scene_from_dict(d)
-    assert time.perf_counter() - t0 < 1.0
     assert scene.n_free == n_side**2
     rows[50_000]["y"] = rows[50_001]["y"] - 0.2 * D_S  # deep overlap with its lattice neighbour
     with pytest.raises(SceneError, match=r"#50000 and #50001 overlap"):
