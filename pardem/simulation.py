@@ -101,8 +101,7 @@ class Simulation:
         self.decomp.place_sectors(ps.x[:init.n_free])
         owner = self.decomp.sectors.owner(ps.x[:init.n_free])
         mine = np.flatnonzero(owner == self.decomp.rank)
-        rows = np.concatenate([packed(ps, mine, self.friction),
-                               packed(ps, np.arange(init.n_free, n), self.friction)])
+        rows = packed(ps, np.concatenate([mine, np.arange(init.n_free, n)]), self.friction)
         self.ps = new_particles(rows.shape[0], self.friction)
         unpack_particles(rows, self.ps, 0)
         self.clock.n_move[0] = mine.size

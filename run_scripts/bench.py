@@ -6,11 +6,11 @@ and start-up cost.
 Compresses scene B once (t = 0 .. 2.5 s, not timed) and checkpoints it. Then times
 ``--repeats`` rounds of ``--steps`` shear steps, each round one run per rank count (in turn),
 each run a fresh ``mpiexec -n P`` job restarted from that checkpoint (NUMBA_NUM_THREADS=1, one
-core per rank; the clock starts after warm-up steps that include two neighbour builds, so
-every kernel is loaded, and stops at the last step of the slowest rank). Prints every run, the median, rank 0's per-stage breakdown and the 2-rank
-speed-up (ratio of the medians, and the median of the per-round ratios). ``--startup`` also
-measures `pardem run` from process start to the first step, with an empty numba cache (cold)
-and again with the cache filled (warm).
+core per rank; the clock starts after warm-up steps that include two neighbour builds and
+stops at the last step of the slowest rank). Prints every run, the median, rank 0's per-stage
+breakdown and the 2-rank speed-up (ratio of the medians, and the median of the per-round
+ratios). ``--startup`` also measures `pardem run` from process start to the first step, with
+an empty numba cache (cold) and again with the cache filled (warm).
 """
 
 from __future__ import annotations
@@ -50,7 +50,7 @@ def worker(ckpt: str, steps: int) -> None:
 
     comm = MPI.COMM_WORLD
     run = Simulation(load_scene(HERE / "couette_B.toml"), restart=ckpt, comm=comm)
-    # compiled code loaded (some kernels run only at builds with migrants), caches warm
+    # compiled code loaded and caches warm, the builds' code included
     builds = run.n_rebuilds
     while run.n_rebuilds < builds + 2:
         run.advance_steps(50)

@@ -46,7 +46,8 @@ def scene_dict(effects: dict) -> dict:
 
 
 def packed_state():
-    """Free-particle state after compression (every effect on), indexed by gid."""
+    """``(t, arrays)``: the time (s) and every body's data, sorted by id
+    (``Simulation.particle_arrays``), after compression with every effect on."""
     from pardem.scene import scene_from_dict
     from pardem.simulation import Simulation
 
@@ -81,25 +82,22 @@ def kernel_times(state, calls: int, repeats: int) -> dict[str, dict[str, list[fl
     "call" with every pair and ring contact (springs reset before each call, so every call does
     the same work), "empty" with the contact lists emptied (what remains: the Python call,
     zeroing the sums, copying the predicted velocities)."""
+    def per_call(sim, xi0):
+        t0 = time.perf_counter()
+        for _ in range(calls):
+            sim.pairs.xi[:] = xi0
+            sim.stepper.compute_forces(sim.ps, sim.pairs, sim.clock, sim.prm, 0.01)
+        return (time.perf_counter() - t0) / calls
+
     sims = {label: start(effects, state) for label, effects in VARIANTS.items()}
     out = {label: {"call": [], "empty": []} for label in VARIANTS}
     for _ in range(repeats):
         for label, sim in sims.items():
-            xi0 = sim.pairs.xi.copy()
-            ps, pairs, clock, prm = sim.ps, sim.pairs, sim.clock, sim.prm
-            forces = sim.stepper.compute_forces
-            t0 = time.perf_counter()
-            for _ in range(calls):
-                pairs.xi[:] = xi0
-                forces(ps, pairs, clock, prm, 0.01)
-            out[label]["call"].append((time.perf_counter() - t0) / calls)
+            pairs, xi0 = sim.pairs, sim.pairs.xi.copy()
+            out[label]["call"].append(per_call(sim, xi0))
             counts = int(pairs.count[0]), int(pairs.wall_count[0])
             pairs.count[0] = pairs.wall_count[0] = 0
-            t0 = time.perf_counter()
-            for _ in range(calls):
-                pairs.xi[:] = xi0
-                forces(ps, pairs, clock, prm, 0.01)
-            out[label]["empty"].append((time.perf_counter() - t0) / calls)
+            out[label]["empty"].append(per_call(sim, xi0))
             pairs.count[0], pairs.wall_count[0] = counts
     return out
 
