@@ -56,6 +56,8 @@ mpi_waitall = types.ExternalFunction("MPI_Waitall", _I(_I, _P, _P))
 mpi_testall = types.ExternalFunction("MPI_Testall", _I(_I, _P, _P, _P))  # run_scripts only
 mpi_allreduce = types.ExternalFunction("MPI_Allreduce", _I(_P, _P, _I, _H, _H, _H))
 mpi_wtime = types.ExternalFunction("MPI_Wtime", types.float64())
+mpi_alltoall = types.ExternalFunction("MPI_Alltoall", _I(_P, _I, _H, _P, _I, _H, _H))
+mpi_alltoallv = types.ExternalFunction("MPI_Alltoallv", _I(_P, _P, _P, _H, _P, _P, _P, _H, _H))
 
 
 class Halo(NamedTuple):
@@ -85,26 +87,64 @@ class Halo(NamedTuple):
     wait: np.ndarray
 
 
-def make_halo(comm, nbr, send_idx, send_off, recv_off, use_allreduce: bool,
-              wait: np.ndarray | None = None) -> Halo:
-    """``wait``: the accumulator to keep using (the run's total), or None for a new one."""
-    k = len(nbr)
-    rs, ss = MPI._sizeof(MPI.Request), MPI._sizeof(MPI.Status)
+@nb.njit(**JIT)
+def halo_buffers(nbr, send_idx, send_off, recv_off, req_size, status_size):
+    """The plan (arrays as in Halo) followed by its message, request, status and Allreduce
+    buffers: the first nine fields of a Halo."""
+    k = nbr.size
+    return (nbr, send_idx, send_off, recv_off,
+            np.zeros(HEADER * k + GHOST_VALUES * send_idx.size),
+            np.zeros(HEADER * k + GHOST_VALUES * recv_off[k]),
+            np.zeros(max(2 * k * req_size, 8), np.uint8),
+            np.zeros(max(2 * k * status_size, 8), np.uint8), np.zeros(6))
+
+
+def make_halo(comm, buffers: tuple, use_allreduce: bool, wait: np.ndarray | None = None) -> Halo:
+    """Halo from ``halo_buffers``; ``wait``: the accumulator to keep using (the run's total),
+    or None for a new one."""
     active = comm is not None and comm.Get_size() > 1
     ints = np.array([int(active), MPI._handleof(comm) if active else 0,
-                     MPI._handleof(MPI.DOUBLE), MPI._handleof(MPI.MAX), rs,
-                     int(use_allreduce)], np.int64)
-    return Halo(np.asarray(nbr, np.int64), np.asarray(send_idx, np.int64),
-                np.asarray(send_off, np.int64), np.asarray(recv_off, np.int64),
-                np.zeros(HEADER * k + GHOST_VALUES * len(send_idx)),
-                np.zeros(HEADER * k + GHOST_VALUES * int(recv_off[-1] if k else 0)),
-                np.zeros(max(2 * k * rs, 8), np.uint8), np.zeros(max(2 * k * ss, 8), np.uint8),
-                np.zeros(6), ints, np.zeros(1) if wait is None else wait)
+                     MPI._handleof(MPI.DOUBLE), MPI._handleof(MPI.MAX),
+                     MPI._sizeof(MPI.Request), int(use_allreduce)], np.int64)
+    return Halo(*buffers, ints, np.zeros(1) if wait is None else wait)
+
+
+def collective_handles(comm) -> np.ndarray:
+    """[comm, MPI_DOUBLE, MPI_INT] handles for ``alltoallv``, then the sizes (bytes) of an
+    MPI_Request and an MPI_Status for ``halo_buffers`` (int64)."""
+    return np.array([MPI._handleof(comm), MPI._handleof(MPI.DOUBLE), MPI._handleof(MPI.INT),
+                     MPI._sizeof(MPI.Request), MPI._sizeof(MPI.Status)], np.int64)
+
+
+@nb.njit(**JIT)
+def alltoallv(sbuf, send_off, handles):
+    """Piece ``sbuf[send_off[r]:send_off[r + 1]]`` (float64) to each rank r -> ``(rbuf, recv_off,
+    mpi_error)``: the piece from rank q is ``rbuf[recv_off[q]:recv_off[q + 1]]``. Collective:
+    the counts in one MPI_Alltoall, the data in one MPI_Alltoallv."""
+    size = send_off.size - 1
+    comm, dbl, i32 = handles[0], handles[1], handles[2]
+    s_n = np.empty(size, np.int32)
+    s_at = np.empty(size, np.int32)
+    for r in range(size):
+        s_n[r] = send_off[r + 1] - send_off[r]
+        s_at[r] = send_off[r]
+    r_n = np.zeros(size, np.int32)
+    err = mpi_alltoall(s_n.ctypes.data, 1, i32, r_n.ctypes.data, 1, i32, comm)
+    recv_off = np.zeros(size + 1, np.int64)
+    r_at = np.empty(size, np.int32)
+    for q in range(size):
+        r_at[q] = recv_off[q]
+        recv_off[q + 1] = recv_off[q] + r_n[q]
+    rbuf = np.empty(recv_off[size])
+    err |= mpi_alltoallv(sbuf.ctypes.data, s_n.ctypes.data, s_at.ctypes.data, dbl,
+                         rbuf.ctypes.data, r_n.ctypes.data, r_at.ctypes.data, dbl, comm)
+    return rbuf, recv_off, err
 
 
 def serial_halo() -> Halo:
     """One rank: no neighbours, no MPI call."""
-    return make_halo(None, [], [], [0], [0], False)
+    none, zero = np.zeros(0, np.int64), np.zeros(1, np.int64)
+    return make_halo(None, halo_buffers(none, none, zero, zero, 8, 8), False)
 
 
 @nb.njit(**JIT)

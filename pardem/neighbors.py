@@ -17,6 +17,7 @@ import numba as nb
 import numpy as np
 
 from .jit import JIT
+from .walls import outer_radius
 
 
 @nb.njit(**JIT)
@@ -165,6 +166,33 @@ def ring_candidates(x, radius, n_move, r_in, r_out, skin, out):
                 out[count] = i
             count += 1
     return count
+
+
+@nb.njit(**JIT)
+def build_lists(ps, pairs, clock, prm, t, from_list, lo, hi, xi, friction, walls):
+    """A neighbour build's lists in one compiled call (at a build, each call from Python costs
+    tens of us): reference positions and outer radius for the skin test, the pair list
+    (``build_pairs``) with the springs carried over (``carry_history``; from the current list
+    if ``from_list``, else from (lo, hi, xi)), and the ring candidates (``ring_candidates``).
+    Returns ``(count, n_wall, lo, hi, xi)``. If count or n_wall exceeds the capacity of pairs,
+    the lists are unusable: grow them and call again with the returned springs."""
+    if from_list:
+        lo, hi, xi = live_springs(ps.gid, pairs.i, pairs.j, pairs.xi, pairs.count[0])
+    n = clock.n_local[0] + clock.n_ghost[0]
+    n_move = clock.n_move[0]
+    ps.x_ref[:n] = ps.x[:n]
+    r_out = outer_radius(t, prm)[0]
+    clock.r_out_ref[0] = r_out
+    count = build_pairs(ps.x, ps.radius, ps.gid, n_move, n, prm.skin, pairs.i, pairs.j)
+    n_wall = 0
+    if walls:
+        n_wall = ring_candidates(ps.x, ps.radius, n_move, prm.r_in, r_out, prm.skin, pairs.wall)
+    if count <= pairs.i.size and n_wall <= pairs.wall.size:
+        if friction:
+            carry_history(lo, hi, xi, ps.gid, pairs.i, pairs.j, pairs.xi[:count])
+        pairs.count[0] = count
+        pairs.wall_count[0] = n_wall
+    return count, n_wall, lo, hi, xi
 
 
 def brute_force_pairs(x: np.ndarray, radius: np.ndarray, gid: np.ndarray, kind: np.ndarray,

@@ -24,13 +24,14 @@ import numpy as np
 
 from . import diagnostics as diag
 from .contact import LawOptions
-from .decomposition import Decomposition, merge_history
-from .neighbors import build_pairs, carry_history, live_springs, ring_candidates
+from .decomposition import Decomposition
+from .migration import merge_springs
+from .neighbors import build_lists, live_springs
 from .output.checkpoint import ARRAYS, load_checkpoint, save_checkpoint
 from .output.snapshots import write_snapshot
 from .placement import initial_configuration
 from .scene import Scene, SceneError, write_scene
-from .state import (FREE, Pairs, Params, new_clock, new_pairs, new_particles, packed,
+from .state import (FREE, NO_SPRINGS, Params, new_clock, new_pairs, new_particles, packed,
                     row_width, unpack_particles)
 from .stepper import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
@@ -134,31 +135,20 @@ class Simulation:
         """New neighbour list; under MPI first migrate particles and exchange ghosts. Springs are
         carried over by gid keys (from ``history`` if given, else from the current list)."""
         clock = self.clock
-        if history is None and self.friction:
-            history = self._spring_history()
         if self.decomp.parallel:
             history = self._exchange(history, rebalance)
-        ps, pairs = self.ps, self.pairs
-        n = int(clock.n_local[0] + clock.n_ghost[0])
-        n_move = int(clock.n_move[0])
-        ps.x_ref[:n] = ps.x[:n]
-        r_out_now = outer_radius(self.time, self.prm)[0]
-        clock.r_out_ref[0] = r_out_now
-        count = build_pairs(ps.x, ps.radius, ps.gid, n_move, n, self.prm.skin, pairs.i, pairs.j)
-        if count > pairs.i.size:
-            pairs = self._grow_pairs(count + count // 2, pairs.wall.size)
-            build_pairs(ps.x, ps.radius, ps.gid, n_move, n, self.prm.skin, pairs.i, pairs.j)
-        if self.friction:
-            carry_history(*history, ps.gid, pairs.i, pairs.j, pairs.xi[:count])
-        if self.options.walls:
-            nw = ring_candidates(ps.x, ps.radius, n_move, self.prm.r_in, r_out_now,
-                                 self.prm.skin, pairs.wall)
-            if nw > pairs.wall.size:
-                pairs = self._grow_pairs(pairs.i.size, nw + nw // 2, keep=count)
-                ring_candidates(ps.x, ps.radius, n_move, self.prm.r_in, r_out_now,
-                                self.prm.skin, pairs.wall)
-            pairs.wall_count[0] = nw
-        pairs.count[0] = count
+        from_list = self.friction and history is None
+        lo, hi, xi = history if history is not None else NO_SPRINGS
+        while True:
+            count, n_wall, lo, hi, xi = build_lists(
+                self.ps, self.pairs, clock, self.prm, self.time, from_list, lo, hi, xi,
+                self.friction, self.options.walls)
+            if count <= self.pairs.i.size and n_wall <= self.pairs.wall.size:
+                break
+            from_list = False  # the springs were read before the list was overwritten
+            self.pairs = new_pairs(max(count + count // 2, self.pairs.i.size),
+                                   max(n_wall + n_wall // 2, self.pairs.wall.size),
+                                   self.friction)
         self.n_rebuilds += 1
 
     def _exchange(self, history, rebalance: bool):
@@ -171,21 +161,22 @@ class Simulation:
         idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
         if rebalance:
             self.decomp.rebalance(ps.x[:n_move])
-        own, ghosts, history = self.decomp.distribute(ps, n_move, friction, history)
-        if own is None and n_local + ghosts.shape[0] <= ps.gid.size:
-            unpack_particles(ghosts, ps, n_local)
-        else:
-            if own is None:
-                own = packed(ps, np.arange(n_move), friction)
-            rows = np.concatenate([own, packed(ps, np.arange(n_move, n_local), friction),
-                                   ghosts])  # copies: safe to overwrite ps below
-            if rows.shape[0] > ps.gid.size:
-                self.ps = ps = new_particles(int(1.25 * rows.shape[0]), friction)
+        written, moved, own, walls, ghosts, n_near, history = self.decomp.distribute(
+            ps, self.pairs, n_move, n_local, idle, friction, history, self.time, self.prm,
+            self._wall_margin)
+        n_own = own.shape[0] if moved else n_move
+        if not written:  # ps too small: store the rows in larger arrays
+            rows = np.concatenate([own, walls, ghosts] if moved else
+                                  [packed(ps, np.arange(n_local), friction), ghosts])
+            self.ps = ps = new_particles(int(1.25 * rows.shape[0]), friction)
             unpack_particles(rows, ps, 0)
-            clock.n_move[0] = own.shape[0]
-            clock.n_local[0] = own.shape[0] + n_local - n_move
+        clock.n_move[0] = n_own
+        clock.n_local[0] = n_own + n_local - n_move
         clock.n_ghost[0] = ghosts.shape[0]
-        self._order_walls(idle)  # the wall block keeps its order: the idle ones are still last
+        if not written:
+            self._order_walls(idle)  # the wall block keeps its order: the idle ones are last
+        else:
+            clock.n_moved[0] = n_own + n_near
         return history
 
     def _order_walls(self, idle: int) -> None:
@@ -216,13 +207,6 @@ class Simulation:
         """Springs of the current list that are non-zero, keyed by (gid_lo, gid_hi), sorted."""
         return live_springs(self.ps.gid, self.pairs.i, self.pairs.j, self.pairs.xi,
                             int(self.pairs.count[0]))
-
-    def _grow_pairs(self, cap: int, wall_cap: int, keep: int = 0) -> Pairs:
-        new = new_pairs(cap, wall_cap, self.friction)
-        for a, b in zip(new[:3], self.pairs[:3]):
-            a[:keep] = b[:keep]
-        self.pairs = new
-        return new
 
     # -- running ---------------------------------------------------------------------------
     def run(self, end: float | None = None, progress: bool = True) -> None:
@@ -478,8 +462,9 @@ class Simulation:
         if self.friction and self.decomp.parallel:
             gathered = self.decomp.gather_rows(
                 {"key": np.column_stack(springs[:2]), "xi": springs[2]}, key="key")
-            springs = None if gathered is None else merge_history(
-                [(gathered["key"][:, 0], gathered["key"][:, 1], gathered["xi"])])
+            key = None if gathered is None else np.ascontiguousarray(gathered["key"].T)
+            springs = None if gathered is None else merge_springs(
+                key[0], key[1], gathered["xi"], np.zeros((0, 4)))
         if arrays is None:
             return None
         _clear_wall_loads(arrays, "kind", "f", "tau")

@@ -131,6 +131,10 @@ class Clock(NamedTuple):
     reach: np.ndarray
 
 
+NO_SPRINGS = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
+"""An empty contact history (gid_lo, gid_hi, xi)."""
+
+
 def new_particles(n: int, friction: bool) -> Particles:
     """Zeroed particle arrays for n particles."""
     z = np.zeros

@@ -46,6 +46,32 @@ def test_trajectory_does_not_depend_on_the_skin():
             np.testing.assert_array_equal(a, b)
 
 
+def test_full_pair_list_is_grown_with_its_springs():
+    """A build that finds more pairs than the lists hold grows them and builds again, carrying
+    the springs read before the first attempt overwrote the list: same springs and forces as
+    a twin run whose lists had room."""
+    geometry = {"outer_start_radius": 0.17, "outer_radius": 0.138, "compression_time": 0.2}
+    runs = [Simulation(couette_scene(counts=(400, 60), geometry=geometry)) for _ in range(2)]
+    for sim in runs:
+        sim.advance_steps(4000)
+    full, roomy = runs
+    p, count, n_wall = full.pairs, int(full.pairs.count[0]), int(full.pairs.wall_count[0])
+    room = roomy.pairs
+    full.pairs = type(p)(p.i[:count].copy(), p.j[:count].copy(), p.xi[:count].copy(),
+                         p.count.copy(), p.wall[:n_wall].copy(), p.wall_count.copy())
+    for sim in runs:
+        sim.prm = sim.prm._replace(skin=2.0 * sim.prm.skin)  # a longer list
+        sim.refresh()
+    assert roomy.pairs is room  # the twin's lists had room
+    assert full.pairs.count[0] > count and full.pairs.wall_count[0] > n_wall
+    assert full.pairs.count[0] == roomy.pairs.count[0]
+    springs = full._spring_history()
+    assert springs[0].size > 100
+    for a, b in zip(springs, roomy._spring_history()):
+        np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(full.ps.f, roomy.ps.f)
+
+
 @pytest.fixture(scope="module")
 def sheared_b():
     """Scene B (the paper's counts and cell), compressed in 2 s, relaxed and sheared to t = 5 s

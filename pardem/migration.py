@@ -1,0 +1,278 @@
+"""Compiled neighbour-build exchange under MPI: migration with contact history and ghost
+selection in one round, then the new layout of the rows and the per-step refresh plan.
+
+Stage: neighbour rebuild (``decomposition.distribute`` calls the two kernels; the collective
+itself is ``mpi_native.alltoallv``). A build costs ~1 ms; done as ~80 numpy and mpi4py calls
+with the interpreter's caches cold after the step loop, the glue cost more than the work, so
+the whole exchange is two compiled calls around one Alltoall + Alltoallv.
+
+One round suffices because the sender knows where each of its particles goes: to rank r it
+sends the particles r will own (migrants, with the springs of their listed pairs) and the
+particles another rank will own that lie within ``ghost_width`` of sector r (ghosts). A
+migrant that lies near the sender's own sector is kept there as a ghost without a message.
+Every row carries its new owner; each rank stores its ghosts sorted by (owner, gid), and each
+owner sends its per-step refreshes to r in gid order of the particles near sector r, the same
+set and order, because sender and owner apply the same distance test to the same bits.
+
+Message to one rank: [rows, springs, rows x (owner, packed row), springs x (lo, hi, xi_x, xi_y)].
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+import numpy as np
+
+from .jit import JIT
+from .mpi_native import alltoallv, halo_buffers
+from .neighbors import live_springs
+from .sectors import _owner, _ray_distance
+from .state import pack_particles, unpack_particles
+from .walls import arrange_walls
+
+
+SHIFT, LOW = 32, (1 << 32) - 1  # sort keys (high, low): rank or gid, gid; gids < 2**31
+
+
+@nb.njit(**JIT)
+def _destination(gid, mig_gid, mig_dest):
+    """Rank a migrant goes to (mig_gid sorted), or -1 if gid does not migrate."""
+    k = np.searchsorted(mig_gid, gid)
+    return mig_dest[k] if k < mig_gid.size and mig_gid[k] == gid else -1
+
+
+@nb.njit(**JIT)
+def _edge_vectors(edges):
+    """Unit vectors of the sector edge rays, [P+1, 2]."""
+    e = np.empty((edges.size, 2))
+    for k in range(edges.size):
+        e[k, 0] = math.cos(edges[k])
+        e[k, 1] = math.sin(edges[k])
+    return e
+
+
+@nb.njit(**JIT)
+def _near(px, py, e, r, ghost_width):
+    """Is the point within ghost_width of sector r's edge rays (the ``Sectors.distance`` test)?"""
+    return min(_ray_distance(px, py, e[r, 0], e[r, 1]),
+               _ray_distance(px, py, e[r + 1, 0], e[r + 1, 1])) < ghost_width
+
+
+@nb.njit(**JIT)
+def exchange_rows(ps, pairs, n_move, n_local, idle, edges, rank, ghost_width, width, x_col,
+                  from_list, lo, hi, xi, t, prm, wall_margin, handles):
+    """The whole exchange of a neighbour build (collective): ``send_rows``, then
+    ``receive_rows``. Returns ``(mpi_error, received)``, received as from receive_rows."""
+    rbuf, recv_off, owner, lo, hi, xi, err = send_rows(ps, pairs, n_move, edges, rank,
+                                                       ghost_width, width, from_list, lo, hi,
+                                                       xi, handles)
+    return err, receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank,
+                             ghost_width, width, x_col, lo, hi, xi, t, prm, wall_margin,
+                             handles, err == 0)
+
+
+@nb.njit(**JIT)
+def send_rows(ps, pairs, n_move, edges, rank, ghost_width, width, from_list, lo, hi, xi,
+              handles):
+    """Migrate and ghost the owned rows ps[:n_move]. Springs: the non-zero ones of the current
+    pair list if ``from_list``, else (lo, hi, xi) (a restart's). Returns ``(rbuf, recv_off,
+    owner, lo, hi, xi, mpi_error)``: the messages received, each owned row's new owner, and
+    the springs sent from."""
+    size = edges.size - 1
+    if from_list:
+        lo, hi, xi = live_springs(ps.gid, pairs.i, pairs.j, pairs.xi, pairs.count[0])
+    owner = _owner(ps.x[:n_move], edges, rank)
+    e = _edge_vectors(edges)
+    # rows for each destination: its migrants and its ghosts owned by someone else
+    dest = np.zeros((size, n_move), np.bool_)
+    n_rows = np.zeros(size, np.int64)
+    for p in range(n_move):
+        o = owner[p]
+        for r in range(size):
+            if r != rank and (r == o or _near(ps.x[p, 0], ps.x[p, 1], e, r, ghost_width)):
+                dest[r, p] = True
+                n_rows[r] += 1
+    leaving = np.flatnonzero(owner != rank)
+    order = np.argsort(ps.gid[leaving])
+    mig_gid, mig_dest = ps.gid[leaving][order], owner[leaving][order]
+    spring_lo = np.empty(lo.size, np.int64)  # destination of each spring's partners (-1: none)
+    spring_hi = np.empty(lo.size, np.int64)
+    n_springs = np.zeros(size, np.int64)
+    for k in range(lo.size if leaving.size else 0):
+        d_lo = _destination(lo[k], mig_gid, mig_dest)
+        d_hi = _destination(hi[k], mig_gid, mig_dest)
+        spring_lo[k] = d_lo
+        spring_hi[k] = d_hi
+        if d_lo >= 0:
+            n_springs[d_lo] += 1
+        if d_hi >= 0 and d_hi != d_lo:
+            n_springs[d_hi] += 1
+    send_off = np.zeros(size + 1, np.int64)
+    for r in range(size):
+        used = n_rows[r] + n_springs[r] > 0
+        send_off[r + 1] = send_off[r] + (2 + n_rows[r] * (width + 1) + 4 * n_springs[r]
+                                         if used else 0)
+    sbuf = np.empty(send_off[size])
+    for r in range(size):
+        if send_off[r + 1] == send_off[r]:
+            continue
+        b = send_off[r]
+        sbuf[b] = n_rows[r]
+        sbuf[b + 1] = n_springs[r]
+        idx = np.flatnonzero(dest[r, :n_move])
+        rows = np.empty((idx.size, width))
+        pack_particles(ps, idx, rows)
+        at = b + 2
+        for q in range(idx.size):
+            sbuf[at] = owner[idx[q]]
+            sbuf[at + 1:at + 1 + width] = rows[q]
+            at += width + 1
+        for k in range(lo.size if leaving.size else 0):
+            if spring_lo[k] == r or spring_hi[k] == r:
+                sbuf[at] = lo[k]
+                sbuf[at + 1] = hi[k]
+                sbuf[at + 2] = xi[k, 0]
+                sbuf[at + 3] = xi[k, 1]
+                at += 4
+    rbuf, recv_off, err = alltoallv(sbuf, send_off, handles)
+    return rbuf, recv_off, owner, lo, hi, xi, err
+
+
+@nb.njit(**JIT)
+def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, ghost_width,
+                 width, x_col, lo, hi, xi, t, prm, wall_margin, handles, write):
+    """Lay out [owned, gid-sorted | wall disks | ghosts, sorted by (owner, gid)] from the kept
+    rows and the messages of ``send_rows``, merge the migrants' springs into (lo, hi, xi), and
+    plan the per-step refresh. If ``write`` and ps is large enough, the rows are written (only
+    the ghosts if no owned row left or arrived) and the wall disks arranged (``arrange_walls``;
+    the ``idle`` last ones are placed at time t first). Returns ``(written, moved, n_near,
+    n_arrived, own, walls, ghosts, springs, halo)``: springs (lo, hi, xi), halo the
+    ``halo_buffers`` of the refresh plan. If not written, the caller stores own and walls (if
+    moved; else they are empty and ps[:n_local] stays) and ghosts."""
+    size = edges.size - 1
+    e = _edge_vectors(edges)
+    n_arr, n_gh, n_sp = 0, 0, 0
+    for q in range(size):
+        if recv_off[q + 1] > recv_off[q]:
+            b = recv_off[q]
+            for k in range(int(rbuf[b])):
+                if int(rbuf[b + 2 + k * (width + 1)]) == rank:
+                    n_arr += 1
+                else:
+                    n_gh += 1
+            n_sp += int(rbuf[b + 1])
+    kept = np.flatnonzero(owner == rank)
+    stay = np.zeros(n_move, np.bool_)  # migrants kept here as ghosts
+    for p in range(n_move):
+        stay[p] = owner[p] != rank and _near(ps.x[p, 0], ps.x[p, 1], e, rank, ghost_width)
+    stay_idx = np.flatnonzero(stay)
+    ghosts = np.empty((n_gh + stay_idx.size, width))
+    key = np.empty(ghosts.shape[0], np.int64)
+    pack_particles(ps, stay_idx, ghosts[n_gh:])
+    arrivals = np.empty((n_arr, width))
+    springs = np.empty((n_sp, 4))
+    a, g, s = 0, 0, 0
+    for q in range(size):
+        if recv_off[q + 1] == recv_off[q]:
+            continue
+        b = recv_off[q]
+        at = b + 2
+        for k in range(int(rbuf[b])):
+            if int(rbuf[at]) == rank:
+                arrivals[a] = rbuf[at + 1:at + 1 + width]
+                a += 1
+            else:
+                ghosts[g] = rbuf[at + 1:at + 1 + width]
+                key[g] = (int(rbuf[at]) << SHIFT) | int(rbuf[at + 1])
+                g += 1
+            at += width + 1
+        for k in range(int(rbuf[b + 1])):
+            springs[s] = rbuf[at:at + 4]
+            s += 1
+            at += 4
+    for k in range(stay_idx.size):
+        key[n_gh + k] = (owner[stay_idx[k]] << SHIFT) | ps.gid[stay_idx[k]]
+    ghosts = ghosts[np.argsort(key)]
+
+    moved = kept.size < n_move or n_arr > 0
+    own = np.empty((0, width))
+    walls = np.empty((0, width))
+    if moved:
+        own = np.empty((kept.size + n_arr, width))
+        pack_particles(ps, kept, own)
+        own[kept.size:] = arrivals
+        own = own[np.argsort(own[:, 0])]  # column 0: gid
+        walls = np.empty((n_local - n_move, width))
+        pack_particles(ps, np.arange(n_move, n_local), walls)
+    if n_sp:
+        lo, hi, xi = merge_springs(lo, hi, xi, springs)
+
+    # per-step refresh plan: owned particles near each other sector, in (new) storage order
+    n_own = own.shape[0] if moved else n_move
+    send = np.zeros((size, n_own), np.bool_)
+    n_send = np.zeros(size, np.int64)
+    for p in range(n_own):
+        px = own[p, x_col] if moved else ps.x[p, 0]
+        py = own[p, x_col + 1] if moved else ps.x[p, 1]
+        for r in range(size):
+            if r != rank and _near(px, py, e, r, ghost_width):
+                send[r, p] = True
+                n_send[r] += 1
+    n_recv = np.zeros(size, np.int64)
+    for k in range(key.size):
+        n_recv[key[k] >> SHIFT] += 1
+    nbr = np.flatnonzero((n_send > 0) | (n_recv > 0))
+    send_off = np.zeros(nbr.size + 1, np.int64)
+    recv_off_g = np.zeros(nbr.size + 1, np.int64)
+    for q in range(nbr.size):
+        send_off[q + 1] = send_off[q] + n_send[nbr[q]]
+        recv_off_g[q + 1] = recv_off_g[q] + n_recv[nbr[q]]
+    send_idx = np.empty(send_off[nbr.size], np.int64)
+    for q in range(nbr.size):
+        send_idx[send_off[q]:send_off[q + 1]] = np.flatnonzero(send[nbr[q]])
+
+    n_new = n_local - n_move + n_own
+    written = write and n_new + ghosts.shape[0] <= ps.gid.size
+    n_near = 0
+    if written:
+        if moved:
+            unpack_particles(own, ps, 0)
+            unpack_particles(walls, ps, n_own)
+        unpack_particles(ghosts, ps, n_new)
+        n_near = arrange_walls(ps, n_own, n_new - idle, n_new, t, prm, edges, rank,
+                               wall_margin, width)
+    return (written, moved, n_near, n_arr, own, walls, ghosts, (lo, hi, xi),
+            halo_buffers(nbr, send_idx, send_off, recv_off_g, handles[3], handles[4]))
+
+
+@nb.njit(**JIT)
+def merge_springs(lo, hi, xi, springs):
+    """Springs (lo, hi, xi) joined with more springs [m, 4] (rows lo, hi, xi_x, xi_y), sorted by
+    (lo, hi), duplicates dropped (a pair seen by two ranks has the same spring on both: same
+    inputs, same arithmetic)."""
+    n = lo.size + springs.shape[0]
+    key = np.empty(n, np.int64)
+    vals = np.empty((n, 2))
+    for k in range(lo.size):
+        key[k] = (lo[k] << SHIFT) | hi[k]
+        vals[k] = xi[k]
+    for k in range(springs.shape[0]):
+        key[lo.size + k] = (int(springs[k, 0]) << SHIFT) | int(springs[k, 1])
+        vals[lo.size + k, 0] = springs[k, 2]
+        vals[lo.size + k, 1] = springs[k, 3]
+    order = np.argsort(key, kind="mergesort")
+    m = 0
+    for k in range(n):
+        m += k == 0 or key[order[k]] != key[order[k - 1]]
+    out_lo = np.empty(m, np.int64)
+    out_hi = np.empty(m, np.int64)
+    out_xi = np.empty((m, 2))
+    q = 0
+    for k in range(n):
+        if k == 0 or key[order[k]] != key[order[k - 1]]:
+            out_lo[q] = key[order[k]] >> SHIFT
+            out_hi[q] = key[order[k]] & LOW
+            out_xi[q] = vals[order[k]]
+            q += 1
+    return out_lo, out_hi, out_xi
