@@ -26,7 +26,7 @@ from mpi4py import MPI
 
 from . import sectors as sec
 from .migration import exchange_rows
-from .mpi_native import Halo, collective_handles, make_halo, serial_halo
+from .mpi_native import Halo, SharedWindow, collective_handles, make_halo, serial_halo
 from .scene import SceneError
 from .state import NO_SPRINGS, join_rows, row_columns, row_width
 
@@ -52,6 +52,10 @@ class Decomposition:
         self.n_rebalanced = 0
         self._builds = 0
         self._handles = collective_handles(comm) if self.comm else None
+        # the per-step ghost refresh goes through shared memory if all ranks are on one node
+        self.shared_halo = SharedWindow.usable(comm) if self.comm else False
+        self.window: SharedWindow | None = None  # made (or grown) at a build, to its size
+        self.n_windows = 0
         if self.size > 1 and inner_radius > 0.0:
             arc = 2.0 * math.pi * inner_radius / self.size
             if arc < ghost_width:
@@ -139,20 +143,27 @@ class Decomposition:
         (the ``idle`` last ones placed at time t) arranged near-first. Returns ``(written,
         moved, own, walls, ghosts, n_near, history)`` (``migration.receive_rows``)."""
         lo, hi, xi = history if history is not None else NO_SPRINGS
-        err, (written, moved, n_near, n_arrived, own, walls, ghosts, springs, buffers) = \
-            exchange_rows(ps, pairs, n_move, n_local, idle, self.sectors.edges, self.rank,
-                          self.ghost_width, row_width(friction),
-                          row_columns(friction)["x"].start, friction and history is None,
-                          lo, hi, xi, t, prm, wall_margin, self._handles)
+        err, (written, moved, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
+            (peer_at, need) = exchange_rows(
+                ps, pairs, n_move, n_local, idle, self.sectors.edges, self.rank,
+                self.ghost_width, row_width(friction), row_columns(friction)["x"].start,
+                friction and history is None, lo, hi, xi, t, prm, wall_margin, self._handles,
+                self.shared_halo)
         if err:
             raise RuntimeError(f"MPI exchange of migrants and ghosts failed on rank {self.rank}")
         self.n_migrated += n_arrived
+        if self.shared_halo and (self.window is None or need > self.window.cap):
+            if self.window is not None:  # every rank knows need: all come here together
+                self.window.free()
+            self.window = SharedWindow(self.comm, need + need // 2 + 64)
+            self.n_windows += 1
         # Header maxima are global only if every rank talks to every other one. On 2 ranks
         # both know: each is the other's neighbour or neither is.
         use_allreduce = buffers[0].size < self.size - 1
         if self.size > 2:
             use_allreduce = self.comm.allreduce(use_allreduce, op=MPI.LOR)
-        self.halo = make_halo(self.comm, buffers, use_allreduce, self.halo.wait)
+        self.halo = make_halo(self.comm, buffers, use_allreduce, self.halo.wait, self.window,
+                              peer_at)
         return written, moved, own, walls, ghosts, n_near, (springs if friction else None)
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:

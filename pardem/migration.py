@@ -25,7 +25,7 @@ import numba as nb
 import numpy as np
 
 from .jit import JIT
-from .mpi_native import alltoallv, halo_buffers
+from .mpi_native import alltoallv, halo_buffers, peer_offsets
 from .neighbors import live_springs
 from .sectors import _owner, _ray_distance
 from .state import pack_particles, unpack_particles
@@ -61,15 +61,22 @@ def _near(px, py, e, r, ghost_width):
 
 @nb.njit(**JIT)
 def exchange_rows(ps, pairs, n_move, n_local, idle, edges, rank, ghost_width, width, x_col,
-                  from_list, lo, hi, xi, t, prm, wall_margin, handles):
-    """The whole exchange of a neighbour build (collective): ``send_rows``, then
-    ``receive_rows``. Returns ``(mpi_error, received)``, received as from receive_rows."""
+                  from_list, lo, hi, xi, t, prm, wall_margin, handles, shared):
+    """The whole exchange of a neighbour build (collective): ``send_rows``, ``receive_rows``,
+    and with a ``shared`` memory refresh ``mpi_native.peer_offsets``. Returns ``(mpi_error,
+    received, peers)``: received as from receive_rows, peers (peer_at, need) or empty."""
     rbuf, recv_off, owner, lo, hi, xi, err = send_rows(ps, pairs, n_move, edges, rank,
                                                        ghost_width, width, from_list, lo, hi,
                                                        xi, handles)
-    return err, receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank,
-                             ghost_width, width, x_col, lo, hi, xi, t, prm, wall_margin,
-                             handles, err == 0)
+    received = receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank,
+                            ghost_width, width, x_col, lo, hi, xi, t, prm, wall_margin, handles,
+                            err == 0)
+    peer_at, need = np.zeros(0, np.int64), 0
+    if shared:
+        nbr, send_idx, send_off = received[8][:3]
+        peer_at, need, err2 = peer_offsets(nbr, send_idx, send_off, handles)
+        err |= err2
+    return err, received, (peer_at, need)
 
 
 @nb.njit(**JIT)

@@ -358,7 +358,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 bad, disp, v2 = drift(ps, clock, prm, fx, scratch)
                 # ghosts to t + dt; every rank learns the global maxima (one rank: no-op)
                 err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0], bad >= 0,
-                                                        disp, v2)
+                                                        disp, v2, clock.step[0])
                 if err != 0:
                     return MPI_FAILED, -1
                 if bad_any:

@@ -21,9 +21,10 @@ def mpiexec() -> str:
 
 
 def run_mpi(args: list[str], n: int, timeout: float = 120, check: bool = True,
-            module: bool = True) -> subprocess.CompletedProcess:
-    """Run ``python [-m mpi4py] ARGS`` on n ranks; fail the test on a non-zero exit or timeout."""
-    env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
+            module: bool = True, env: dict | None = None) -> subprocess.CompletedProcess:
+    """Run ``python [-m mpi4py] ARGS`` on n ranks (``env``: extra environment variables); fail
+    the test on a non-zero exit or timeout."""
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1", **(env or {}))
     py = [sys.executable, "-m", "mpi4py"] if module else [sys.executable]
     try:
         proc = subprocess.run([mpiexec(), "-n", str(n), *py, *args], capture_output=True,
@@ -35,9 +36,11 @@ def run_mpi(args: list[str], n: int, timeout: float = 120, check: bool = True,
     return proc
 
 
-def dump_state(scene: Path, steps: int, out: Path, n: int, *extra: str) -> dict:
+def dump_state(scene: Path, steps: int, out: Path, n: int, *extra: str,
+               env: dict | None = None) -> dict:
     """Run tests/mpi/dump_state.py on n ranks; return the saved arrays."""
-    run_mpi([str(MPI_DIR / "dump_state.py"), str(scene), str(steps), str(out), *extra], n)
+    run_mpi([str(MPI_DIR / "dump_state.py"), str(scene), str(steps), str(out), *extra], n,
+            env=env)
     with np.load(out) as f:
         return {k: f[k] for k in f.files}
 

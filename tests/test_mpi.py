@@ -5,6 +5,7 @@ Each test launches ``mpiexec`` (the one beside sys.executable) on scripts in tes
 3 and 4 ranks oversubscribe the 2 cores, which is fine for correctness (never for timings).
 """
 
+import os
 from pathlib import Path
 
 import numpy as np
@@ -44,13 +45,21 @@ def test_couette_quick_is_bitwise_identical_on_1_2_3_4_ranks(tmp_path):
 
 
 def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
+    """On 2 and 3 ranks with the ghosts refreshed through shared memory (the default on one
+    node with a core per rank; by messages when oversubscribed), on 2 ranks also by messages,
+    and once with a shared window that has to grow."""
     scene = fast_shear_scene(tmp_path)
     steps = 20_000
     ref = dump_state(scene, steps, tmp_path / "r1.npz", 1)
-    for n in (2, 3):
-        got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n)
-        assert got["migrated"] >= 100, f"{n} ranks: only {got['migrated']} migrations"
-        assert_same_state(ref, got, f"{n} ranks vs 1")
+    cores = len(os.sched_getaffinity(0))
+    for n, extra, env in ((2, (), None), (3, (), None), (2, (), {"PARDEM_HALO": "messages"}),
+                          (2, ("--grow-window",), None)):
+        label = f"{n} ranks {extra} {env or ''} vs 1"
+        got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n, *extra, env=env)
+        assert got["migrated"] >= 100, f"{label}: only {got['migrated']} migrations"
+        shared = env is None and n <= cores
+        assert got["shared_windows"] == (0 if not shared else 2 if extra else 1), label
+        assert_same_state(ref, got, label)
 
 
 def test_loaded_springs_migrate_intact(tmp_path):

@@ -1,12 +1,13 @@
 """Run a scene for a number of steps on the ranks of COMM_WORLD and save the gathered state.
 
     mpiexec -n P python -m mpi4py tests/mpi/dump_state.py SCENE STEPS OUT.npz [--restart CKPT]
-        [--checkpoint-at STEP CKPT]
+        [--checkpoint-at STEP CKPT] [--grow-window]
 
 Rank 0 writes OUT.npz with every particle array and the springs (sorted by gid), plus the run's
 migration and rebuild counts and, summed over the ranks, the wall disks a rank does not move
 and the listed pairs that involve one of those (must be none); the tests compare these files
-between rank counts.
+between rank counts. ``--grow-window``: start the shared-memory ghost refresh with a window
+too small for it, so that the next build must replace it.
 """
 
 import argparse
@@ -14,6 +15,7 @@ import argparse
 import numpy as np
 from mpi4py import MPI
 
+from pardem.mpi_native import SharedWindow
 from pardem.scene import load_scene
 from pardem.simulation import Simulation
 
@@ -25,9 +27,14 @@ def main():
     ap.add_argument("out")
     ap.add_argument("--restart")
     ap.add_argument("--checkpoint-at", nargs=2)
+    ap.add_argument("--grow-window", action="store_true")
     args = ap.parse_args()
     comm = MPI.COMM_WORLD
     sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm)
+    if args.grow_window:
+        sim.decomp.window.free()
+        sim.decomp.window = SharedWindow(comm, 4)
+        sim._rebuild()  # a build at the same state changes no bit; it replaces the window
     if args.checkpoint_at:
         at = int(args.checkpoint_at[0])
         sim.advance_steps(at - int(sim.clock.step[0]))
@@ -46,7 +53,8 @@ def main():
     if comm.rank == 0:
         np.savez(args.out, **arrays, step=attrs["step"], migrated=migrated,
                  rebuilds=sim.n_rebuilds, rebalanced=sim.decomp.n_rebalanced,
-                 idle_walls=idle_walls, idle_wall_pairs=idle_pairs)
+                 idle_walls=idle_walls, idle_wall_pairs=idle_pairs,
+                 shared_windows=sim.decomp.n_windows)
 
 
 if __name__ == "__main__":
