@@ -26,13 +26,18 @@ from mpi4py import MPI
 
 from . import sectors as sec
 from .migration import exchange_rows
-from .mpi_native import Halo, SharedWindow, collective_handles, make_halo, serial_halo
+from .mpi_native import (GHOST_VALUES, HEADER, Halo, SharedWindow, collective_handles,
+                         make_halo, serial_halo)
 from .scene import SceneError
 from .state import NO_SPRINGS, join_rows, row_columns, row_width
 
 History = tuple[np.ndarray, np.ndarray, np.ndarray]  # (gid_lo, gid_hi, xi [m,2]) sorted by key
 HIST_BINS = 4096
 REBALANCE_EVERY = 8  # neighbour builds between balance checks (counts drift slowly)
+# Largest ghost refresh (doubles a rank sends per step) that goes through shared memory: above
+# ~200 ghosts per neighbour, messages (a single copy by MPICH) were faster here
+# (run_scripts/mpi_latency.py); below, shared memory saves the ~1.4 us message latency.
+SHARED_HALO_LIMIT = HEADER + GHOST_VALUES * 200
 
 
 class Decomposition:
@@ -152,8 +157,10 @@ class Decomposition:
         if err:
             raise RuntimeError(f"MPI exchange of migrants and ghosts failed on rank {self.rank}")
         self.n_migrated += n_arrived
-        if self.shared_halo and (self.window is None or need > self.window.cap):
-            if self.window is not None:  # every rank knows need: all come here together
+        # every rank knows need: all take the same branches
+        shared = self.shared_halo and need <= SHARED_HALO_LIMIT
+        if shared and (self.window is None or need > self.window.cap):
+            if self.window is not None:
                 self.window.free()
             self.window = SharedWindow(self.comm, need + need // 2 + 64)
             self.n_windows += 1
@@ -162,8 +169,8 @@ class Decomposition:
         use_allreduce = buffers[0].size < self.size - 1
         if self.size > 2:
             use_allreduce = self.comm.allreduce(use_allreduce, op=MPI.LOR)
-        self.halo = make_halo(self.comm, buffers, use_allreduce, self.halo.wait, self.window,
-                              peer_at)
+        self.halo = make_halo(self.comm, buffers, use_allreduce, self.halo.wait,
+                              self.window if shared else None, peer_at)
         return written, moved, own, walls, ghosts, n_near, (springs if friction else None)
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:

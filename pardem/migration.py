@@ -27,7 +27,7 @@ import numpy as np
 from .jit import JIT
 from .mpi_native import alltoallv, halo_buffers, peer_offsets
 from .neighbors import live_springs
-from .sectors import _owner, _ray_distance
+from .sectors import edge_distance, edge_vectors, owners
 from .state import pack_particles, unpack_particles
 from .walls import arrange_walls
 
@@ -40,23 +40,6 @@ def _destination(gid, mig_gid, mig_dest):
     """Rank a migrant goes to (mig_gid sorted), or -1 if gid does not migrate."""
     k = np.searchsorted(mig_gid, gid)
     return mig_dest[k] if k < mig_gid.size and mig_gid[k] == gid else -1
-
-
-@nb.njit(**JIT)
-def _edge_vectors(edges):
-    """Unit vectors of the sector edge rays, [P+1, 2]."""
-    e = np.empty((edges.size, 2))
-    for k in range(edges.size):
-        e[k, 0] = math.cos(edges[k])
-        e[k, 1] = math.sin(edges[k])
-    return e
-
-
-@nb.njit(**JIT)
-def _near(px, py, e, r, ghost_width):
-    """Is the point within ghost_width of sector r's edge rays (the ``Sectors.distance`` test)?"""
-    return min(_ray_distance(px, py, e[r, 0], e[r, 1]),
-               _ray_distance(px, py, e[r + 1, 0], e[r + 1, 1])) < ghost_width
 
 
 @nb.njit(**JIT)
@@ -73,7 +56,7 @@ def exchange_rows(ps, pairs, n_move, n_local, idle, edges, rank, ghost_width, wi
                             err == 0)
     peer_at, need = np.zeros(0, np.int64), 0
     if shared:
-        nbr, send_idx, send_off = received[8][:3]
+        nbr, send_idx, send_off = received[8][:3]  # the refresh plan (halo_buffers)
         peer_at, need, err2 = peer_offsets(nbr, send_idx, send_off, handles)
         err |= err2
     return err, received, (peer_at, need)
@@ -89,15 +72,15 @@ def send_rows(ps, pairs, n_move, edges, rank, ghost_width, width, from_list, lo,
     size = edges.size - 1
     if from_list:
         lo, hi, xi = live_springs(ps.gid, pairs.i, pairs.j, pairs.xi, pairs.count[0])
-    owner = _owner(ps.x[:n_move], edges, rank)
-    e = _edge_vectors(edges)
+    owner = owners(ps.x[:n_move], edges, rank)
+    e = edge_vectors(edges)
     # rows for each destination: its migrants and its ghosts owned by someone else
     dest = np.zeros((size, n_move), np.bool_)
     n_rows = np.zeros(size, np.int64)
     for p in range(n_move):
-        o = owner[p]
+        px, py, o = ps.x[p, 0], ps.x[p, 1], owner[p]
         for r in range(size):
-            if r != rank and (r == o or _near(ps.x[p, 0], ps.x[p, 1], e, r, ghost_width)):
+            if r != rank and (r == o or edge_distance(px, py, e, r) < ghost_width):
                 dest[r, p] = True
                 n_rows[r] += 1
     leaving = np.flatnonzero(owner != rank)
@@ -158,7 +141,7 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
     ``halo_buffers`` of the refresh plan. If not written, the caller stores own and walls (if
     moved; else they are empty and ps[:n_local] stays) and ghosts."""
     size = edges.size - 1
-    e = _edge_vectors(edges)
+    e = edge_vectors(edges)
     n_arr, n_gh, n_sp = 0, 0, 0
     for q in range(size):
         if recv_off[q + 1] > recv_off[q]:
@@ -172,7 +155,7 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
     kept = np.flatnonzero(owner == rank)
     stay = np.zeros(n_move, np.bool_)  # migrants kept here as ghosts
     for p in range(n_move):
-        stay[p] = owner[p] != rank and _near(ps.x[p, 0], ps.x[p, 1], e, rank, ghost_width)
+        stay[p] = owner[p] != rank and edge_distance(ps.x[p, 0], ps.x[p, 1], e, rank) < ghost_width
     stay_idx = np.flatnonzero(stay)
     ghosts = np.empty((n_gh + stay_idx.size, width))
     key = np.empty(ghosts.shape[0], np.int64)
@@ -223,7 +206,7 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
         px = own[p, x_col] if moved else ps.x[p, 0]
         py = own[p, x_col + 1] if moved else ps.x[p, 1]
         for r in range(size):
-            if r != rank and _near(px, py, e, r, ghost_width):
+            if r != rank and edge_distance(px, py, e, r) < ghost_width:
                 send[r, p] = True
                 n_send[r] += 1
     n_recv = np.zeros(size, np.int64)

@@ -15,16 +15,17 @@ stream, so edges cannot mix. If the neighbour sets do not cover all ranks (P > 3
 maxima are completed by one ``MPI_Allreduce``; otherwise the headers already hold the global
 maxima and no collective is needed.
 
-When all ranks share one node with a core each (the usual case for this code), the ghosts do not travel as
-messages at all: each rank owns a slice of one MPI-3 shared-memory window, writes its outgoing
-blocks there (same layout as a message buffer), publishes the step number with a release
-store, and reads its neighbours' blocks once their step numbers arrive (acquire loads). That
-is ~0.3 us against ~1.4 us for Irecv + Isend + Waitall, whose shared-memory messages move
-only inside an MPI call. Two buffers, alternating with the step's parity, keep a fast rank
-from overwriting blocks a neighbour is still reading: it cannot get two steps ahead, because
-every step waits for the neighbours' step numbers. A wait longer than ~5 us yields the core
-at every further look (with more ranks than cores, the awaited rank may need it).
-``PARDEM_HALO=messages`` forces messages.
+When all ranks share one node with a core each (the usual case for this code), small ghost
+refreshes do not travel as messages at all: each rank owns a slice of one MPI-3 shared-memory
+window, writes its outgoing blocks there (same layout as a message buffer), publishes the step
+number with a release store, and reads its neighbours' blocks once their step numbers arrive
+(acquire loads). For 50 ghosts that took 0.6-1.7 us against 1.9-2.9 us for Irecv + Isend +
+Waitall, whose shared-memory messages move only inside an MPI call; from a few hundred ghosts
+on, messages are faster (``run_scripts/mpi_latency.py``), so the decomposition chooses by size
+at each build. Two buffers, alternating with the step's parity, keep a fast rank from
+overwriting blocks a neighbour is still reading: it cannot get two steps ahead, because every
+step waits for the neighbours' step numbers. A wait longer than ~5 us yields the core at every
+further look. ``PARDEM_HALO=messages`` forces messages.
 
 Handles: MPICH's are C ``int``; an MPI-ABI build uses pointers. Both are passed in registers on
 x86-64 and AArch64, so the handle width is chosen from mpi4py's ``MPI._sizeof(MPI.Comm)``.

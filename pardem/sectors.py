@@ -36,11 +36,11 @@ class Sectors(NamedTuple):
         in (tested first, without an arc tangent)."""
         if self.count == 1:
             return np.zeros(x.shape[0], np.int64)
-        return _owner(x, self.edges, guess)
+        return owners(x, self.edges, guess)
 
     def distance(self, x: np.ndarray, rank: int) -> np.ndarray:
         """Distance (m) of points x [n,2] outside sector ``rank`` from that sector."""
-        return _distance(x, self.edges[rank], self.edges[rank + 1])
+        return _distance(x, self.edges, rank)
 
     def arc_width(self, radius: float) -> float:
         """Narrowest sector's arc length (m) at the given radius."""
@@ -49,7 +49,8 @@ class Sectors(NamedTuple):
 
 # Compiled: called at every neighbour build, where numpy's per-call overhead dominated.
 @nb.njit(**JIT)
-def _owner(x, edges, guess):
+def owners(x, edges, guess):
+    """Rank owning each point of x [n,2] (``Sectors.owner``)."""
     p = edges.size - 1
     # wedge ``guess`` by the sides of its two rays; a wedge wider than pi is tested as "not in
     # the complementary wedge", which is narrower than pi
@@ -77,18 +78,39 @@ def _owner(x, edges, guess):
 @nb.njit(**JIT)
 def near(x, edges, rank, margin):
     """Mask of the points x [n,2] inside sector ``rank`` or within ``margin`` (m) of it."""
-    return (_owner(x, edges, rank) == rank) | (_distance(x, edges[rank], edges[rank + 1])
-                                               < margin)
+    inside = owners(x, edges, rank) == rank
+    e = edge_vectors(edges)
+    out = np.empty(x.shape[0], np.bool_)
+    for k in range(x.shape[0]):
+        out[k] = inside[k] or edge_distance(x[k, 0], x[k, 1], e, rank) < margin
+    return out
 
 
 @nb.njit(**JIT)
-def _distance(x, angle0, angle1):
+def _distance(x, edges, rank):
     out = np.empty(x.shape[0])
-    c0, s0, c1, s1 = math.cos(angle0), math.sin(angle0), math.cos(angle1), math.sin(angle1)
+    e = edge_vectors(edges)
     for k in range(x.shape[0]):
-        out[k] = min(_ray_distance(x[k, 0], x[k, 1], c0, s0),
-                     _ray_distance(x[k, 0], x[k, 1], c1, s1))
+        out[k] = edge_distance(x[k, 0], x[k, 1], e, rank)
     return out
+
+
+@nb.njit(**JIT)
+def edge_vectors(edges):
+    """Unit vectors of the sector edge rays, [P+1, 2] (for ``edge_distance``)."""
+    e = np.empty((edges.size, 2))
+    for k in range(edges.size):
+        e[k, 0] = math.cos(edges[k])
+        e[k, 1] = math.sin(edges[k])
+    return e
+
+
+@nb.njit(**JIT)
+def edge_distance(px, py, e, rank):
+    """Distance (m) of the point (px, py) from the edge rays of sector ``rank`` (e: edge
+    vectors): from outside the sector, its distance from the sector."""
+    return min(_ray_distance(px, py, e[rank, 0], e[rank, 1]),
+               _ray_distance(px, py, e[rank + 1, 0], e[rank + 1, 1]))
 
 
 @nb.njit(**JIT)

@@ -1,6 +1,7 @@
 """Cost of the per-step MPI work on this machine, called from compiled code as the step loop
-does: one neighbour exchange (Irecv + Isend + Waitall) of a given size, one 3-value
-MPI_Allreduce, and the wait of an exchange of 50 ghosts with compute between the post and the
+does: one neighbour exchange (Irecv + Isend + Waitall) of a given size, the same exchange
+through the shared-memory window (write the block, publish the step, await the neighbour's,
+read its block: ``mpi_native.refresh_ghosts``), one 3-value MPI_Allreduce, and the wait of an exchange of 50 ghosts with compute between the post and the
 wait, with and without one MPI_Testall half way (does MPI move the message meanwhile?). Run on
 2 ranks:
 
@@ -16,8 +17,8 @@ import numba as nb
 import numpy as np
 from mpi4py import MPI
 
-from pardem.mpi_native import (mpi_allreduce, mpi_irecv, mpi_isend, mpi_testall, mpi_waitall,
-                               mpi_wtime)
+from pardem.mpi_native import (SEQ, SharedWindow, load_acquire, mpi_allreduce, mpi_irecv,
+                               mpi_isend, mpi_testall, mpi_waitall, mpi_wtime, store_release)
 
 
 @nb.njit
@@ -26,6 +27,20 @@ def exchange(n, comm, dbl, sb, rb, req, rsize, st, other):
         mpi_irecv(rb.ctypes.data, rb.size, dbl, other, 7, comm, req.ctypes.data)
         mpi_isend(sb.ctypes.data, sb.size, dbl, other, 7, comm, req.ctypes.data + rsize)
         mpi_waitall(2, req.ctypes.data, st.ctypes.data)
+
+
+@nb.njit
+def shared_exchange(n, shared, seq, me, other, cap, size, step, sb, rb):
+    """Like ``exchange`` through the window: sb written into this rank's row, rb read from the
+    other's (step[0]: the last step published, carried over between calls)."""
+    for _ in range(n):
+        step[0] += 1
+        base = SEQ + (step[0] & 1) * cap
+        shared[me, base:base + size] = sb
+        store_release(seq[me], 0, step[0])
+        while load_acquire(seq[other], 0) < step[0]:
+            pass
+        rb[:] = shared[other, base:base + size]
 
 
 @nb.njit
@@ -78,11 +93,16 @@ def main():
             xs.append((time.perf_counter() - t0) / calls * 1e6)
         return statistics.median(xs)
 
+    window = SharedWindow(comm, 3 + 5 * 3000)
+    step = np.zeros(1, np.int64)
     for ghosts in (0, 50, 300, 3000):
         n = 3 + 5 * ghosts
         us = timed(exchange, c, dbl, np.ones(n), np.zeros(n), req, rsize, st, 1 - comm.rank)
+        shm = timed(shared_exchange, window.shared, window.seq, comm.rank, 1 - comm.rank,
+                    window.cap, n, step, np.ones(n), np.zeros(n))
         if comm.rank == 0:
-            print(f"exchange of {ghosts:5d} ghosts ({8 * n:6d} bytes each way): {us:6.2f} us")
+            print(f"exchange of {ghosts:5d} ghosts ({8 * n:6d} bytes each way): {us:6.2f} us "
+                  f"by messages, {shm:6.2f} us through shared memory")
     us = timed(allreduce, c, dbl, op, np.zeros(6))
     if comm.rank == 0:
         print(f"MPI_Allreduce of 3 doubles (max): {us:6.2f} us")
