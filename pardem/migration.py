@@ -19,8 +19,6 @@ Message to one rank: [rows, springs, rows x (owner, packed row), springs x (lo, 
 
 from __future__ import annotations
 
-import math
-
 import numba as nb
 import numpy as np
 
@@ -155,7 +153,8 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
     kept = np.flatnonzero(owner == rank)
     stay = np.zeros(n_move, np.bool_)  # migrants kept here as ghosts
     for p in range(n_move):
-        stay[p] = owner[p] != rank and edge_distance(ps.x[p, 0], ps.x[p, 1], e, rank) < ghost_width
+        near_here = edge_distance(ps.x[p, 0], ps.x[p, 1], e, rank) < ghost_width
+        stay[p] = owner[p] != rank and near_here
     stay_idx = np.flatnonzero(stay)
     ghosts = np.empty((n_gh + stay_idx.size, width))
     key = np.empty(ghosts.shape[0], np.int64)
@@ -198,29 +197,9 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
     if n_sp:
         lo, hi, xi = merge_springs(lo, hi, xi, springs)
 
-    # per-step refresh plan: owned particles near each other sector, in (new) storage order
     n_own = own.shape[0] if moved else n_move
-    send = np.zeros((size, n_own), np.bool_)
-    n_send = np.zeros(size, np.int64)
-    for p in range(n_own):
-        px = own[p, x_col] if moved else ps.x[p, 0]
-        py = own[p, x_col + 1] if moved else ps.x[p, 1]
-        for r in range(size):
-            if r != rank and edge_distance(px, py, e, r) < ghost_width:
-                send[r, p] = True
-                n_send[r] += 1
-    n_recv = np.zeros(size, np.int64)
-    for k in range(key.size):
-        n_recv[key[k] >> SHIFT] += 1
-    nbr = np.flatnonzero((n_send > 0) | (n_recv > 0))
-    send_off = np.zeros(nbr.size + 1, np.int64)
-    recv_off_g = np.zeros(nbr.size + 1, np.int64)
-    for q in range(nbr.size):
-        send_off[q + 1] = send_off[q] + n_send[nbr[q]]
-        recv_off_g[q + 1] = recv_off_g[q] + n_recv[nbr[q]]
-    send_idx = np.empty(send_off[nbr.size], np.int64)
-    for q in range(nbr.size):
-        send_idx[send_off[q]:send_off[q + 1]] = np.flatnonzero(send[nbr[q]])
+    x_own = own[:, x_col:x_col + 2] if moved else ps.x[:n_move]
+    plan = _refresh_plan(x_own, key, e, rank, ghost_width)
 
     n_new = n_local - n_move + n_own
     written = write and n_new + ghosts.shape[0] <= ps.gid.size
@@ -233,7 +212,35 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
         n_near = arrange_walls(ps, n_own, n_new - idle, n_new, t, prm, edges, rank,
                                wall_margin, width)
     return (written, moved, n_near, n_arr, own, walls, ghosts, (lo, hi, xi),
-            halo_buffers(nbr, send_idx, send_off, recv_off_g, handles[3], handles[4]))
+            halo_buffers(*plan, handles[3], handles[4]))
+
+
+@nb.njit(**JIT)
+def _refresh_plan(x_own, ghost_key, e, rank, ghost_width):
+    """The per-step refresh plan: to each other rank, the owned particles (positions x_own, in
+    storage order) near its sector; from it, the ghosts it owns (ghost_key: owner, gid). Returns
+    ``(nbr, send_idx, send_off, recv_off)`` as in ``mpi_native.Halo``."""
+    size = e.shape[0] - 1
+    send = np.zeros((size, x_own.shape[0]), np.bool_)
+    n_send = np.zeros(size, np.int64)
+    for p in range(x_own.shape[0]):
+        for r in range(size):
+            if r != rank and edge_distance(x_own[p, 0], x_own[p, 1], e, r) < ghost_width:
+                send[r, p] = True
+                n_send[r] += 1
+    n_recv = np.zeros(size, np.int64)
+    for k in range(ghost_key.size):
+        n_recv[ghost_key[k] >> SHIFT] += 1
+    nbr = np.flatnonzero((n_send > 0) | (n_recv > 0))
+    send_off = np.zeros(nbr.size + 1, np.int64)
+    recv_off = np.zeros(nbr.size + 1, np.int64)
+    for q in range(nbr.size):
+        send_off[q + 1] = send_off[q] + n_send[nbr[q]]
+        recv_off[q + 1] = recv_off[q] + n_recv[nbr[q]]
+    send_idx = np.empty(send_off[nbr.size], np.int64)
+    for q in range(nbr.size):
+        send_idx[send_off[q]:send_off[q + 1]] = np.flatnonzero(send[nbr[q]])
+    return nbr, send_idx, send_off, recv_off
 
 
 @nb.njit(**JIT)

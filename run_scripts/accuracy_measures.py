@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from averaging.offline import average_run, snapshot_sample
+from averaging.offline import snapshot_sample
 from averaging.rings import RingAverager, read_rings
 from pardem.output.snapshots import read_snapshots
 from pardem.scene import load_scene, scene_from_dict

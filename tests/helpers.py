@@ -4,8 +4,6 @@ from __future__ import annotations
 
 import math
 
-import numpy as np
-
 from pardem.scene import scene_from_dict
 from pardem.verification import dense_packing  # noqa: F401 (re-exported for the tests)
 

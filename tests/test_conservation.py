@@ -5,7 +5,7 @@ import math
 
 import numpy as np
 import pytest
-from helpers import D_SMALL, M_SMALL, couette_scene, dense_packing, free_scene
+from helpers import D_SMALL, M_SMALL, dense_packing, free_scene
 
 from pardem.simulation import Simulation
 from pardem.verification import elastic_gas_energy_error
