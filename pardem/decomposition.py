@@ -61,6 +61,7 @@ class Decomposition:
         self.shared_halo = SharedWindow.usable(comm) if self.comm else False
         self.window: SharedWindow | None = None  # made (or grown) at a build, to its size
         self.n_windows = 0
+        self.n_shared_builds = 0  # builds after which the refresh went through shared memory
         if self.size > 1 and inner_radius > 0.0:
             arc = 2.0 * math.pi * inner_radius / self.size
             if arc < ghost_width:
@@ -159,6 +160,7 @@ class Decomposition:
         self.n_migrated += n_arrived
         # every rank knows need: all take the same branches
         shared = self.shared_halo and need <= SHARED_HALO_LIMIT
+        self.n_shared_builds += shared
         if shared and (self.window is None or need > self.window.cap):
             if self.window is not None:
                 self.window.free()

@@ -47,18 +47,23 @@ def test_couette_quick_is_bitwise_identical_on_1_2_3_4_ranks(tmp_path):
 def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
     """On 2 and 3 ranks with the ghosts refreshed through shared memory (the default on one
     node with a core per rank; by messages when oversubscribed), on 2 ranks also by messages,
-    and once with a shared window that has to grow."""
+    once with a shared window that has to grow, and once switching between shared memory and
+    messages from build to build (a limit inside the range of refresh sizes, 68-93 doubles)."""
     scene = fast_shear_scene(tmp_path)
     steps = 20_000
     ref = dump_state(scene, steps, tmp_path / "r1.npz", 1)
     cores = len(os.sched_getaffinity(0))
-    for n, extra, env in ((2, (), None), (3, (), None), (2, (), {"PARDEM_HALO": "messages"}),
-                          (2, ("--grow-window",), None)):
+    messages = {"PARDEM_HALO": "messages"}
+    # (ranks, options, environment, shared windows made if the ranks have a core each)
+    for n, extra, env, windows in ((2, (), None, 1), (3, (), None, 1), (2, (), messages, 0),
+                                   (2, ("--grow-window",), None, 2),
+                                   (2, ("--shared-limit", "78"), None, 1)):
         label = f"{n} ranks {extra} {env or ''} vs 1"
         got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n, *extra, env=env)
         assert got["migrated"] >= 100, f"{label}: only {got['migrated']} migrations"
-        shared = env is None and n <= cores
-        assert got["shared_windows"] == (0 if not shared else 2 if extra else 1), label
+        assert got["shared_windows"] == (windows if n <= cores else 0), label
+        if extra[:1] == ("--shared-limit",):
+            assert 0 < got["shared_builds"] < got["rebuilds"] - 100, label
         assert_same_state(ref, got, label)
 
 

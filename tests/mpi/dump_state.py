@@ -1,13 +1,15 @@
 """Run a scene for a number of steps on the ranks of COMM_WORLD and save the gathered state.
 
     mpiexec -n P python -m mpi4py tests/mpi/dump_state.py SCENE STEPS OUT.npz [--restart CKPT]
-        [--checkpoint-at STEP CKPT] [--grow-window]
+        [--checkpoint-at STEP CKPT] [--grow-window] [--shared-limit DOUBLES]
 
 Rank 0 writes OUT.npz with every particle array and the springs (sorted by gid), plus the run's
 migration and rebuild counts and, summed over the ranks, the wall disks a rank does not move
 and the listed pairs that involve one of those (must be none); the tests compare these files
 between rank counts. ``--grow-window``: start the shared-memory ghost refresh with a window
-too small for it, so that the next build must replace it.
+too small for it, so that the next build must replace it. ``--shared-limit``: the largest
+refresh (doubles per rank) sent through shared memory, instead of
+``decomposition.SHARED_HALO_LIMIT``.
 """
 
 import argparse
@@ -15,6 +17,7 @@ import argparse
 import numpy as np
 from mpi4py import MPI
 
+from pardem import decomposition
 from pardem.mpi_native import SharedWindow
 from pardem.scene import load_scene
 from pardem.simulation import Simulation
@@ -28,7 +31,10 @@ def main():
     ap.add_argument("--restart")
     ap.add_argument("--checkpoint-at", nargs=2)
     ap.add_argument("--grow-window", action="store_true")
+    ap.add_argument("--shared-limit", type=int)
     args = ap.parse_args()
+    if args.shared_limit is not None:
+        decomposition.SHARED_HALO_LIMIT = args.shared_limit
     comm = MPI.COMM_WORLD
     sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm)
     if args.grow_window:
@@ -54,7 +60,8 @@ def main():
         np.savez(args.out, **arrays, step=attrs["step"], migrated=migrated,
                  rebuilds=sim.n_rebuilds, rebalanced=sim.decomp.n_rebalanced,
                  idle_walls=idle_walls, idle_wall_pairs=idle_pairs,
-                 shared_windows=sim.decomp.n_windows)
+                 shared_windows=sim.decomp.n_windows,
+                 shared_builds=sim.decomp.n_shared_builds)
 
 
 if __name__ == "__main__":
