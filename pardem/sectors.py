@@ -6,7 +6,8 @@ the cell axis, ``edges[r] <= angle < edges[r + 1]`` (rad), with ``edges[P] = edg
 A point outside wedge r is at distance min(distance to either boundary ray) from it; a rank
 needs every particle within the ghost width of its wedge. This works for any sector width,
 including a wedge wider than pi (2 ranks) and an empty one. A future radial x angular cut only
-has to supply ``owner`` and ``distance`` for its cells; nothing else depends on the shape.
+has to supply ``owners``, ``edge_vectors`` (its geometry as an array) and ``edge_distance`` for
+its cells; the build (``migration.py``) uses nothing else of the shape.
 """
 
 from __future__ import annotations
