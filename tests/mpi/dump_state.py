@@ -37,7 +37,7 @@ def main():
         decomposition.SHARED_HALO_LIMIT = args.shared_limit
     comm = MPI.COMM_WORLD
     sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm)
-    if args.grow_window:
+    if args.grow_window and sim.decomp.window is not None:  # None: messages (oversubscribed)
         sim.decomp.window.free()
         sim.decomp.window = SharedWindow(comm, 4)
         sim._rebuild()  # a build at the same state changes no bit; it replaces the window
