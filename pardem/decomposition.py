@@ -140,21 +140,24 @@ class Decomposition:
         self.n_rebalanced += 1
 
     # -- neighbour build -------------------------------------------------------------------
-    def distribute(self, ps, pairs, n_move: int, n_local: int, idle: int, friction: bool,
+    def distribute(self, ps, pairs, clock, friction: bool, ring_walls: bool,
                    history: History | None, t: float, prm, wall_margin: float):
         """Migrate owned particles (ps[:n_move]) that left the sector, with their springs, and
-        exchange ghosts, in one round (``migration.py``); sets ``self.halo`` for the ghosts'
-        per-step refresh. Springs: ``history`` if given (a restart), else the non-zero ones of
-        ``pairs``. If ps is large enough, the new rows are stored in it and the wall disks
-        (the ``idle`` last ones placed at time t) arranged near-first. Returns ``(written,
-        moved, own, walls, ghosts, n_near, history)`` (``migration.receive_rows``)."""
+        exchange ghosts, in one round (``migration.exchange_rows``; it sets the counts in
+        clock); sets ``self.halo`` for the ghosts' per-step refresh. Springs: ``history`` if
+        given (a restart), else the non-zero ones of ``pairs``. If ps is large enough, the new
+        rows are stored in it, the wall disks (the idle ones placed at time t) arranged
+        near-first, and the lists built. Returns ``(written, moved, own, walls, ghosts, lists,
+        history)``: lists as from exchange_rows, the rest as from ``receive_rows``."""
         lo, hi, xi = history if history is not None else NO_SPRINGS
+        n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
+        idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
         err, (written, moved, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
-            (peer_at, need) = exchange_rows(
-                ps, pairs, n_move, n_local, idle, self.sectors.edges, self.rank,
+            (peer_at, need), lists = exchange_rows(
+                ps, pairs, clock, n_move, n_local, idle, self.sectors.edges, self.rank,
                 self.ghost_width, row_width(friction), row_columns(friction)["x"].start,
                 friction and history is None, lo, hi, xi, t, prm, wall_margin, self._handles,
-                self.shared_halo)
+                self.shared_halo, friction, ring_walls)
         if err:
             raise RuntimeError(f"MPI exchange of migrants and ghosts failed on rank {self.rank}")
         self.n_migrated += n_arrived
@@ -173,7 +176,7 @@ class Decomposition:
             use_allreduce = self.comm.allreduce(use_allreduce, op=MPI.LOR)
         self.halo = make_halo(self.comm, buffers, use_allreduce, self.halo.wait,
                               self.window if shared else None, peer_at)
-        return written, moved, own, walls, ghosts, n_near, (springs if friction else None)
+        return written, moved, own, walls, ghosts, lists, (springs if friction else None)
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:
         """Values of an owned per-particle array for this rank's ghosts, in ghost order (output

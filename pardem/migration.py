@@ -24,7 +24,7 @@ import numpy as np
 
 from .jit import JIT
 from .mpi_native import alltoallv, halo_buffers, peer_offsets
-from .neighbors import live_springs
+from .neighbors import build_lists, live_springs
 from .sectors import edge_distance, edge_vectors, owners
 from .state import pack_particles, unpack_particles
 from .walls import arrange_walls
@@ -41,23 +41,39 @@ def _destination(gid, mig_gid, mig_dest):
 
 
 @nb.njit(**JIT)
-def exchange_rows(ps, pairs, n_move, n_local, idle, edges, rank, ghost_width, width, x_col,
-                  from_list, lo, hi, xi, t, prm, wall_margin, handles, shared):
+def exchange_rows(ps, pairs, clock, n_move, n_local, idle, edges, rank, ghost_width, width,
+                  x_col, from_list, lo, hi, xi, t, prm, wall_margin, handles, shared,
+                  friction, ring_walls):
     """The whole exchange of a neighbour build (collective): ``send_rows``, ``receive_rows``,
-    and with a ``shared`` memory refresh ``mpi_native.peer_offsets``. Returns ``(mpi_error,
-    received, peers)``: received as from receive_rows, peers (peer_at, need) or empty."""
+    with a ``shared`` memory refresh ``mpi_native.peer_offsets``, and the new counts in clock.
+    If the rows were written, also the lists (``neighbors.build_lists``, springs carried from
+    the merged ones): one compiled call for the whole build, since at a build each call from
+    Python costs ~50 us to dispatch. Returns ``(mpi_error, received, peers, lists)``: received
+    as from receive_rows, peers (peer_at, need) or empty, lists (pair count, ring candidate
+    count) from build_lists, or (-1, -1) if not built."""
     rbuf, recv_off, owner, lo, hi, xi, err = send_rows(ps, pairs, n_move, edges, rank,
                                                        ghost_width, width, from_list, lo, hi,
                                                        xi, handles)
     received = receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank,
                             ghost_width, width, x_col, lo, hi, xi, t, prm, wall_margin, handles,
                             err == 0)
+    written, moved, n_near, own, ghosts, springs = (received[0], received[1], received[2],
+                                                   received[4], received[6], received[7])
     peer_at, need = np.zeros(0, np.int64), 0
     if shared:
         nbr, send_idx, send_off = received[8][:3]  # the refresh plan (halo_buffers)
         peer_at, need, err2 = peer_offsets(nbr, send_idx, send_off, handles)
         err |= err2
-    return err, received, (peer_at, need)
+    n_own = own.shape[0] if moved else n_move
+    clock.n_move[0] = n_own
+    clock.n_local[0] = n_own + n_local - n_move
+    clock.n_ghost[0] = ghosts.shape[0]
+    count, n_wall = -1, -1
+    if written:
+        clock.n_moved[0] = n_own + n_near
+        count, n_wall, _, _, _ = build_lists(ps, pairs, clock, prm, t, False, springs[0],
+                                             springs[1], springs[2], friction, ring_walls)
+    return err, received, (peer_at, need), (count, n_wall)
 
 
 @nb.njit(**JIT)

@@ -132,52 +132,47 @@ class Simulation:
 
     # -- neighbour list -------------------------------------------------------------------
     def _rebuild(self, history=None, rebalance: bool = True) -> None:
-        """New neighbour list; under MPI first migrate particles and exchange ghosts. Springs are
-        carried over by gid keys (from ``history`` if given, else from the current list)."""
-        clock = self.clock
+        """New neighbour list; under MPI first migrate particles and exchange ghosts (which
+        usually builds the lists too). Springs are carried over by gid keys (from ``history``
+        if given, else from the current list)."""
+        count, n_wall = -1, -1  # lists not built yet
         if self.decomp.parallel:
-            history = self._exchange(history, rebalance)
+            history, (count, n_wall) = self._exchange(history, rebalance)
         from_list = self.friction and history is None
         lo, hi, xi = history if history is not None else NO_SPRINGS
-        while True:
+        while not (0 <= count <= self.pairs.i.size and 0 <= n_wall <= self.pairs.wall.size):
+            if count >= 0:  # a build overflowed the lists: grow them, keep the springs read
+                from_list = False
+                self.pairs = new_pairs(max(count + count // 2, self.pairs.i.size),
+                                       max(n_wall + n_wall // 2, self.pairs.wall.size),
+                                       self.friction)
             count, n_wall, lo, hi, xi = build_lists(
-                self.ps, self.pairs, clock, self.prm, self.time, from_list, lo, hi, xi,
+                self.ps, self.pairs, self.clock, self.prm, self.time, from_list, lo, hi, xi,
                 self.friction, self.options.walls)
-            if count <= self.pairs.i.size and n_wall <= self.pairs.wall.size:
-                break
-            from_list = False  # the springs were read before the list was overwritten
-            self.pairs = new_pairs(max(count + count // 2, self.pairs.i.size),
-                                   max(n_wall + n_wall // 2, self.pairs.wall.size),
-                                   self.friction)
         self.n_rebuilds += 1
 
     def _exchange(self, history, rebalance: bool):
-        """Under MPI: migrate owned particles that left the sector, exchange ghosts and lay the
-        rows out again as [owned | wall disks | ghosts]. At most builds nothing migrates; then
-        the owned rows and wall disks stay where they are and only the ghost rows are written.
-        Returns the spring history with the migrants' springs merged in."""
+        """Under MPI: migrate owned particles that left the sector, exchange ghosts, lay the
+        rows out again as [owned | wall disks | ghosts] and, if they fit, build the lists. At
+        most builds nothing migrates; then the owned rows and wall disks stay where they are
+        and only the ghost rows are written. Returns the spring history with the migrants'
+        springs merged in, and (pair count, ring candidate count) of the lists, or (-1, -1)
+        if they were not built."""
         clock, ps, friction = self.clock, self.ps, self.friction
         n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
+        idle = n_local - int(clock.n_moved[0])
         if rebalance:
             self.decomp.rebalance(ps.x[:n_move])
-        written, moved, own, walls, ghosts, n_near, history = self.decomp.distribute(
-            ps, self.pairs, n_move, n_local, idle, friction, history, self.time, self.prm,
+        written, moved, own, walls, ghosts, lists, history = self.decomp.distribute(
+            ps, self.pairs, clock, friction, self.options.walls, history, self.time, self.prm,
             self._wall_margin)
-        n_own = own.shape[0] if moved else n_move
         if not written:  # ps too small: store the rows in larger arrays
             rows = np.concatenate([own, walls, ghosts] if moved else
                                   [packed(ps, np.arange(n_local), friction), ghosts])
             self.ps = ps = new_particles(int(1.25 * rows.shape[0]), friction)
             unpack_particles(rows, ps, 0)
-        clock.n_move[0] = n_own
-        clock.n_local[0] = n_own + n_local - n_move
-        clock.n_ghost[0] = ghosts.shape[0]
-        if not written:
             self._order_walls(idle)  # the wall block keeps its order: the idle ones are last
-        else:
-            clock.n_moved[0] = n_own + n_near
-        return history
+        return history, lists
 
     def _order_walls(self, idle: int) -> None:
         """Store the wall disks near this rank's sector first and let the step loop move only
