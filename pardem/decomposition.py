@@ -140,18 +140,17 @@ class Decomposition:
         self.n_rebalanced += 1
 
     # -- neighbour build -------------------------------------------------------------------
-    def distribute(self, ps, pairs, clock, friction: bool, ring_walls: bool,
-                   history: History | None, t: float, prm, wall_margin: float):
+    def distribute(self, ps, pairs, clock, n_move: int, n_local: int, idle: int,
+                   friction: bool, ring_walls: bool, history: History | None, t: float, prm,
+                   wall_margin: float):
         """Migrate owned particles (ps[:n_move]) that left the sector, with their springs, and
         exchange ghosts, in one round (``migration.exchange_rows``; it sets the counts in
         clock); sets ``self.halo`` for the ghosts' per-step refresh. Springs: ``history`` if
         given (a restart), else the non-zero ones of ``pairs``. If ps is large enough, the new
-        rows are stored in it, the wall disks (the idle ones placed at time t) arranged
+        rows are stored in it, the wall disks (the ``idle`` last ones placed at time t) arranged
         near-first, and the lists built. Returns ``(written, moved, own, walls, ghosts, lists,
         history)``: lists as from exchange_rows, the rest as from ``receive_rows``."""
         lo, hi, xi = history if history is not None else NO_SPRINGS
-        n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
         err, (written, moved, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
             (peer_at, need), lists = exchange_rows(
                 ps, pairs, clock, n_move, n_local, idle, self.sectors.edges, self.rank,

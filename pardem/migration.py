@@ -1,10 +1,10 @@
 """Compiled neighbour-build exchange under MPI: migration with contact history and ghost
 selection in one round, then the new layout of the rows and the per-step refresh plan.
 
-Stage: neighbour rebuild (``decomposition.distribute`` calls the two kernels; the collective
-itself is ``mpi_native.alltoallv``). A build costs ~1 ms; done as ~80 numpy and mpi4py calls
-with the interpreter's caches cold after the step loop, the glue cost more than the work, so
-the whole exchange is two compiled calls around one Alltoall + Alltoallv.
+Stage: neighbour rebuild (``decomposition.distribute`` calls ``exchange_rows``; the collective
+itself is ``mpi_native.alltoallv``). Done as ~80 numpy and mpi4py calls with the interpreter's
+caches cold after the step loop, the glue of a build cost more than its work, so the whole
+build (exchange, layout, lists) is one compiled call around one Alltoall + Alltoallv.
 
 One round suffices because the sender knows where each of its particles goes: to rank r it
 sends the particles r will own (migrants, with the springs of their listed pairs) and the
@@ -57,12 +57,10 @@ def exchange_rows(ps, pairs, clock, n_move, n_local, idle, edges, rank, ghost_wi
     received = receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank,
                             ghost_width, width, x_col, lo, hi, xi, t, prm, wall_margin, handles,
                             err == 0)
-    written, moved, n_near, own, ghosts, springs = (received[0], received[1], received[2],
-                                                   received[4], received[6], received[7])
+    written, moved, n_near, _, own, _, ghosts, springs, buffers = received
     peer_at, need = np.zeros(0, np.int64), 0
     if shared:
-        nbr, send_idx, send_off = received[8][:3]  # the refresh plan (halo_buffers)
-        peer_at, need, err2 = peer_offsets(nbr, send_idx, send_off, handles)
+        peer_at, need, err2 = peer_offsets(buffers[0], buffers[1], buffers[2], handles)
         err |= err2
     n_own = own.shape[0] if moved else n_move
     clock.n_move[0] = n_own

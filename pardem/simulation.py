@@ -160,12 +160,12 @@ class Simulation:
         if they were not built."""
         clock, ps, friction = self.clock, self.ps, self.friction
         n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        idle = n_local - int(clock.n_moved[0])
+        idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
         if rebalance:
             self.decomp.rebalance(ps.x[:n_move])
         written, moved, own, walls, ghosts, lists, history = self.decomp.distribute(
-            ps, self.pairs, clock, friction, self.options.walls, history, self.time, self.prm,
-            self._wall_margin)
+            ps, self.pairs, clock, n_move, n_local, idle, friction, self.options.walls, history,
+            self.time, self.prm, self._wall_margin)
         if not written:  # ps too small: store the rows in larger arrays
             rows = np.concatenate([own, walls, ghosts] if moved else
                                   [packed(ps, np.arange(n_local), friction), ghosts])
