@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from pardem.neighbors import brute_force_pairs, build_pairs, carry_history
+from pardem.neighbors import brute_force_pairs, build_pairs, carry_history, gid_order
 
 
 def random_dense(n, seed):
@@ -45,3 +45,14 @@ def test_carry_history_matches_by_gid_keys():
     new_xi = np.full((5, 2), -1.0)
     carry_history(old_lo, old_hi, old_xi, gid, new_lo, new_hi, new_xi)
     np.testing.assert_array_equal(new_xi, [[2, 3], [0, 0], [4, 5], [6, 7], [0, 0]])
+
+
+def test_gid_order_sorts_any_number_of_ascending_runs():
+    rng = np.random.default_rng(3)
+    for runs in [1, 2, 3, 4, 7, 50]:
+        gid = rng.permutation(1000).astype(np.int64)
+        cuts = np.sort(rng.choice(np.arange(1, 1000), runs - 1, replace=False))
+        gid = np.concatenate([np.sort(part) for part in np.split(gid, cuts)])
+        np.testing.assert_array_equal(gid_order(gid, 1000), np.argsort(gid))
+        np.testing.assert_array_equal(gid_order(gid, 400), np.argsort(gid[:400]))
+    assert gid_order(np.zeros(0, np.int64), 0).size == 0
