@@ -33,7 +33,10 @@ from .state import NO_SPRINGS, join_rows, row_columns, row_width
 
 History = tuple[np.ndarray, np.ndarray, np.ndarray]  # (gid_lo, gid_hi, xi [m,2]) sorted by key
 HIST_BINS = 4096
-REBALANCE_EVERY = 8  # neighbour builds between balance checks (counts drift slowly)
+REBALANCE_EVERY = 2  # exchanges between balance checks (counts drift slowly)
+# Ghosts are selected this many skins wider than an interaction needs, so that most builds
+# keep the ghosts and owners and only rebuild the lists locally (see needs_exchange).
+GHOST_MARGIN_SKINS = 4.0
 # Largest ghost refresh (doubles a rank sends per step) that goes through shared memory: above
 # ~200 ghosts per neighbour, messages (a single copy by MPICH) were faster here
 # (run_scripts/mpi_latency.py); below, shared memory saves the ~1.4 us message latency.
@@ -43,12 +46,16 @@ SHARED_HALO_LIMIT = HEADER + GHOST_VALUES * 200
 class Decomposition:
     """Ownership and communication of one run. ``comm``: an mpi4py communicator or None."""
 
-    def __init__(self, comm, ghost_width: float, inner_radius: float = 0.0,
-                 balance_threshold: float = 0.1):
+    def __init__(self, comm, reach_width: float, inner_radius: float = 0.0,
+                 balance_threshold: float = 0.1, margin: float = 0.0):
         self.comm = comm if comm is not None and comm.Get_size() > 1 else None
         self.size = comm.Get_size() if comm is not None else 1
         self.rank = comm.Get_rank() if comm is not None else 0
-        self.ghost_width = ghost_width
+        # reach_width: largest free diameter + skin, the farthest a listed partner can be
+        self.margin = margin
+        self.ghost_width = reach_width + margin
+        self.drift = 0.0  # bound on any body's displacement since the last exchange (m)
+        self.n_exchanges = 0
         self.inner_radius = inner_radius
         self.balance_threshold = balance_threshold
         self.sectors = sec.single()
@@ -64,12 +71,12 @@ class Decomposition:
         self.n_shared_builds = 0  # builds after which the refresh went through shared memory
         if self.size > 1 and inner_radius > 0.0:
             arc = 2.0 * math.pi * inner_radius / self.size
-            if arc < ghost_width:
+            if arc < reach_width:
                 raise SceneError(
                     f"{self.size} MPI ranks are too many for this cell: a sector would be "
-                    f"{arc * 1e3:.2f} mm wide at the inner ring, narrower than the ghost width "
-                    f"{ghost_width * 1e3:.2f} mm (largest diameter + skin); use at most "
-                    f"{int(2.0 * math.pi * inner_radius / ghost_width)} ranks")
+                    f"{arc * 1e3:.2f} mm wide at the inner ring, narrower than the interaction "
+                    f"reach {reach_width * 1e3:.2f} mm (largest diameter + skin); use at most "
+                    f"{int(2.0 * math.pi * inner_radius / reach_width)} ranks")
 
     @property
     def parallel(self) -> bool:
@@ -127,7 +134,8 @@ class Decomposition:
         self.sectors = sec.balanced(hist, self.size)
 
     def rebalance(self, x_owned: np.ndarray) -> None:
-        """Re-cut the sectors if the owned counts differ by more than the threshold."""
+        """Re-cut the sectors if the owned counts differ by more than the threshold (checked
+        at every REBALANCE_EVERY-th exchange)."""
         self._builds += 1
         if not self.comm or self._builds % REBALANCE_EVERY:
             return
@@ -140,6 +148,19 @@ class Decomposition:
         self.n_rebalanced += 1
 
     # -- neighbour build -------------------------------------------------------------------
+    def needs_exchange(self, disp: float) -> bool:
+        """At a neighbour build, given the largest displacement since the last build (global):
+        must particles migrate and ghosts be selected again, or may this rank only rebuild its
+        lists? The ghosts were selected ``margin`` wider than the reach of a listed pair, and
+        every owned particle lay in the sector, so while no body has moved more than margin/2
+        since then, every partner of an owned particle within the reach is still here (its
+        distance to the sector then is at most reach + 2 x margin/2). The sum of the builds'
+        largest displacements bounds that motion. Every rank gets the same answer (``disp``
+        is global). One rank: never."""
+        if not self.comm:
+            return False
+        self.drift += disp
+        return self.drift > 0.5 * self.margin
     def distribute(self, ps, pairs, clock, n_move: int, n_local: int, idle: int,
                    friction: bool, ring_walls: bool, history: History | None, t: float, prm,
                    wall_margin: float):
@@ -160,6 +181,8 @@ class Decomposition:
         if err:
             raise RuntimeError(f"MPI exchange of migrants and ghosts failed on rank {self.rank}")
         self.n_migrated += n_arrived
+        self.n_exchanges += 1
+        self.drift = 0.0
         # every rank knows need: all take the same branches
         shared = self.shared_halo and need <= SHARED_HALO_LIMIT
         self.n_shared_builds += shared

@@ -24,7 +24,7 @@ import numpy as np
 
 from . import diagnostics as diag
 from .contact import LawOptions
-from .decomposition import Decomposition
+from .decomposition import GHOST_MARGIN_SKINS, Decomposition
 from .migration import merge_springs
 from .neighbors import build_lists, live_springs
 from .output.checkpoint import ARRAYS, load_checkpoint, save_checkpoint
@@ -80,7 +80,8 @@ class Simulation:
         self.n_free = init.n_free
         self._free_radii = init.radius[:init.n_free].copy()
         self.decomp = Decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
-                                    g.inner_radius if g else 0.0)
+                                    g.inner_radius if g else 0.0,
+                                    margin=GHOST_MARGIN_SKINS * skin)
         # Every rank builds the whole initial state (cheap, deterministic), then keeps its share.
         n = init.radius.size
         ps = new_particles(n, self.friction)
@@ -131,12 +132,12 @@ class Simulation:
         return float(self.clock.step[0] * self.dt)
 
     # -- neighbour list -------------------------------------------------------------------
-    def _rebuild(self, history=None, rebalance: bool = True) -> None:
-        """New neighbour list; under MPI first migrate particles and exchange ghosts (which
-        usually builds the lists too). Springs are carried over by gid keys (from ``history``
-        if given, else from the current list)."""
+    def _rebuild(self, history=None, rebalance: bool = True, exchange: bool = True) -> None:
+        """New neighbour list; under MPI, if ``exchange``, first migrate particles and
+        exchange ghosts (which usually builds the lists too). Springs are carried over by gid
+        keys (from ``history`` if given, else from the current list)."""
         count, n_wall = -1, -1  # lists not built yet
-        if self.decomp.parallel:
+        if self.decomp.parallel and exchange:
             history, (count, n_wall) = self._exchange(history, rebalance)
         from_list = self.friction and history is None
         lo, hi, xi = history if history is not None else NO_SPRINGS
@@ -295,7 +296,7 @@ class Simulation:
             t1 = time.perf_counter()
             self.timers["forces+integration"] += t1 - t0
             if status == NEED_REBUILD:  # every rank returns at the same step (global maxima)
-                self._rebuild()
+                self._rebuild(exchange=self.decomp.needs_exchange(float(self.clock.disp[0])))
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
             elif status == BAD_PARTICLE:
                 message = self._bad_particle_message(bad) if bad >= 0 else None

@@ -119,6 +119,8 @@ class Clock(NamedTuple):
     r_out_ref[0] (float array, m): outer-ring radius at the last neighbour build.
     reach[0] (m): bound on how much any overlap can change in half a step, 2 max|v| dt/2
     (pairs that close to touching get their share of the damping force).
+    disp[0] (m): the largest displacement of any body since the last neighbour build, over all
+    ranks, as of the last step (under MPI it decides whether a build must also exchange).
     """
 
     step: np.ndarray
@@ -129,6 +131,7 @@ class Clock(NamedTuple):
     n_ghost: np.ndarray
     r_out_ref: np.ndarray
     reach: np.ndarray
+    disp: np.ndarray
 
 
 NO_SPRINGS = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
@@ -161,7 +164,7 @@ def new_clock(n_move: int, n_local: int, r_out0: float) -> Clock:
         n_move=np.array([n_move], np.int64), n_local=np.array([n_local], np.int64),
         n_moved=np.array([n_local], np.int64),
         n_ghost=np.zeros(1, np.int64),
-        r_out_ref=np.array([r_out0]), reach=np.zeros(1),
+        r_out_ref=np.array([r_out0]), reach=np.zeros(1), disp=np.zeros(1),
     )
 
 

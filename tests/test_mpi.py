@@ -55,15 +55,20 @@ def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
     cores = len(os.sched_getaffinity(0))
     messages = {"PARDEM_HALO": "messages"}
     # (ranks, options, environment, shared windows made if the ranks have a core each)
-    for n, extra, env, windows in ((2, (), None, 1), (3, (), None, 1), (2, (), messages, 0),
-                                   (2, ("--grow-window",), None, 2),
+    check = ("--check-lists",)
+    for n, extra, env, windows in ((2, check, None, 1), (3, check, None, 1),
+                                   (2, (), messages, 0), (2, ("--grow-window",), None, 2),
                                    (2, ("--shared-limit", "78"), None, 1)):
         label = f"{n} ranks {extra} {env or ''} vs 1"
         got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n, *extra, env=env)
         assert got["migrated"] >= 100, f"{label}: only {got['migrated']} migrations"
+        # most builds keep the ghosts (needs_exchange); the lists stay complete at every one
+        assert 100 < got["exchanges"] < got["rebuilds"] // 2, label
+        if extra == check:
+            assert got["lists_checked"] == got["rebuilds"], label
         assert got["shared_windows"] == (windows if n <= cores else 0), label
         if extra[:1] == ("--shared-limit",):
-            assert 0 < got["shared_builds"] < got["rebuilds"] - 100, label
+            assert 0 < got["shared_builds"] < got["exchanges"] - 20, label
         assert_same_state(ref, got, label)
 
 

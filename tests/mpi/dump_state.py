@@ -1,7 +1,7 @@
 """Run a scene for a number of steps on the ranks of COMM_WORLD and save the gathered state.
 
     mpiexec -n P python -m mpi4py tests/mpi/dump_state.py SCENE STEPS OUT.npz [--restart CKPT]
-        [--checkpoint-at STEP CKPT] [--grow-window] [--shared-limit DOUBLES]
+        [--checkpoint-at STEP CKPT] [--grow-window] [--shared-limit DOUBLES] [--check-lists]
 
 Rank 0 writes OUT.npz with every particle array and the springs (sorted by gid), plus the run's
 migration and rebuild counts and, summed over the ranks, the wall disks a rank does not move
@@ -9,7 +9,10 @@ and the listed pairs that involve one of those (must be none); the tests compare
 between rank counts. ``--grow-window``: start the shared-memory ghost refresh with a window
 too small for it, so that the next build must replace it. ``--shared-limit``: the largest
 refresh (doubles per rank) sent through shared memory, instead of
-``decomposition.SHARED_HALO_LIMIT``.
+``decomposition.SHARED_HALO_LIMIT``. ``--check-lists``: after every neighbour build (local
+or with an exchange), the ranks' pair lists together must be exactly the pairs a brute-force
+search finds in the gathered positions (a ghost missing after a build without exchange would
+lose a pair); the number of builds checked is saved.
 """
 
 import argparse
@@ -19,8 +22,40 @@ from mpi4py import MPI
 
 from pardem import decomposition
 from pardem.mpi_native import SharedWindow
+from pardem.neighbors import brute_force_pairs
 from pardem.scene import load_scene
 from pardem.simulation import Simulation
+
+CHECKED = [0]
+
+
+def check_lists(sim, comm) -> None:
+    """Every rank's listed pairs (gids), joined, equal brute force over the bodies the ranks
+    move (owned particles and the wall disks near each sector: together, every body)."""
+    ps, c, pr = sim.ps, sim.clock, sim.pairs
+    moved = slice(0, int(c.n_moved[0]))
+    k = int(pr.count[0])
+    mine = (ps.gid[moved], ps.x[moved], ps.radius[moved], ps.kind[moved],
+            {(int(a), int(b)) for a, b in zip(ps.gid[pr.i[:k]], ps.gid[pr.j[:k]])})
+    parts = comm.gather(mine, root=0)
+    if comm.rank == 0:
+        gid = np.concatenate([p[0] for p in parts])
+        gid, first = np.unique(gid, return_index=True)  # wall disks near two sectors: same bits
+        x, radius, kind = (np.concatenate([p[q] for p in parts])[first] for q in (1, 2, 3))
+        listed = set().union(*(p[4] for p in parts))
+        expected = brute_force_pairs(x, radius, gid, kind, sim.prm.skin)
+        assert listed == expected, (f"step {int(c.step[0])}: {len(expected - listed)} pairs "
+                                    f"missing, {len(listed - expected)} extra")
+    CHECKED[0] += 1
+
+
+def checked_rebuild(comm):
+    original = Simulation._rebuild
+
+    def rebuild(self, *args, **kwargs):
+        original(self, *args, **kwargs)
+        check_lists(self, comm)
+    return rebuild
 
 
 def main():
@@ -32,10 +67,13 @@ def main():
     ap.add_argument("--checkpoint-at", nargs=2)
     ap.add_argument("--grow-window", action="store_true")
     ap.add_argument("--shared-limit", type=int)
+    ap.add_argument("--check-lists", action="store_true")
     args = ap.parse_args()
     if args.shared_limit is not None:
         decomposition.SHARED_HALO_LIMIT = args.shared_limit
     comm = MPI.COMM_WORLD
+    if args.check_lists:
+        Simulation._rebuild = checked_rebuild(comm)
     sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm)
     if args.grow_window and sim.decomp.window is not None:  # None: messages (oversubscribed)
         sim.decomp.window.free()
@@ -58,7 +96,8 @@ def main():
     idle_pairs = comm.allreduce(int(in_idle.sum()))
     if comm.rank == 0:
         np.savez(args.out, **arrays, step=attrs["step"], migrated=migrated,
-                 rebuilds=sim.n_rebuilds, rebalanced=sim.decomp.n_rebalanced,
+                 rebuilds=sim.n_rebuilds, exchanges=sim.decomp.n_exchanges,
+                 lists_checked=CHECKED[0], rebalanced=sim.decomp.n_rebalanced,
                  idle_walls=idle_walls, idle_wall_pairs=idle_pairs,
                  shared_windows=sim.decomp.n_windows,
                  shared_builds=sim.decomp.n_shared_builds)
