@@ -4,14 +4,17 @@ and the gathers and reductions of output and diagnostics (mpi4py).
 Stage: communication at neighbour-list builds and output times; the per-step ghost refresh is
 compiled into the step loop (``mpi_native.py``). These are the only two modules that talk MPI.
 
-At a neighbour build, every rank (collectively):
+Most neighbour builds only rebuild each rank's lists: the ghosts are selected with a margin
+(``GHOST_MARGIN_SKINS``) and stay valid until the bodies have moved half of it
+(``needs_exchange``). At a build that needs an exchange, every rank (collectively):
 1. re-cuts the sectors if the particle counts drifted apart by more than ``balance_threshold``
-   (cuts placed on a global angular histogram, identical on every rank);
+   (cuts placed on a global angular histogram, identical on every rank; checked at every
+   ``REBALANCE_EVERY``-th exchange);
 2. in one compiled round (``migration.py``) sends each owned particle that left its sector to
    the new owner, with the tangential springs of all its listed pairs (keyed by the partners'
    gids; the new owner merges them with its own), and to every other rank the particles it
-   will need as ghosts: those within ``ghost_width`` of its sector (ghost_width = largest free
-   diameter + skin covers every pair the Verlet list can hold);
+   will need as ghosts: those within ``ghost_width`` of its sector (largest free diameter +
+   skin, which covers every pair the Verlet list can hold, + the margin);
 3. fixes the per-step refresh plan (``mpi_native.Halo``): the same particles in the same order.
 Wall disks are prescribed (a function of time only), so every rank moves all of them itself.
 On one rank all of this is skipped: nothing to migrate, no ghosts, no messages.
@@ -62,13 +65,13 @@ class Decomposition:
         self.halo: Halo = serial_halo()
         self.n_migrated = 0  # particles received from other ranks (cumulative)
         self.n_rebalanced = 0
-        self._builds = 0
+        self._balance_calls = 0
         self._handles = collective_handles(comm) if self.comm else None
         # the per-step ghost refresh goes through shared memory if all ranks are on one node
         self.shared_halo = SharedWindow.usable(comm) if self.comm else False
         self.window: SharedWindow | None = None  # made (or grown) at a build, to its size
         self.n_windows = 0
-        self.n_shared_builds = 0  # builds after which the refresh went through shared memory
+        self.n_shared_builds = 0  # exchanges after which the refresh went through shared memory
         if self.size > 1 and inner_radius > 0.0:
             arc = 2.0 * math.pi * inner_radius / self.size
             if arc < reach_width:
@@ -136,8 +139,8 @@ class Decomposition:
     def rebalance(self, x_owned: np.ndarray) -> None:
         """Re-cut the sectors if the owned counts differ by more than the threshold (checked
         at every REBALANCE_EVERY-th exchange)."""
-        self._builds += 1
-        if not self.comm or self._builds % REBALANCE_EVERY:
+        self._balance_calls += 1
+        if not self.comm or self._balance_calls % REBALANCE_EVERY:
             return
         counts = np.array(self.comm.allgather(x_owned.shape[0]))
         if sec.imbalance(counts) <= self.balance_threshold:
@@ -161,6 +164,7 @@ class Decomposition:
             return False
         self.drift += disp
         return self.drift > 0.5 * self.margin
+
     def distribute(self, ps, pairs, clock, n_move: int, n_local: int, idle: int,
                    friction: bool, ring_walls: bool, history: History | None, t: float, prm,
                    wall_margin: float):

@@ -108,7 +108,7 @@ class Simulation:
         unpack_particles(rows, self.ps, 0)
         self.clock.n_move[0] = mine.size
         self.clock.n_local[0] = rows.shape[0]
-        # _order_walls: no owned particle gets this close to an idle wall disk between builds
+        # _order_walls: no owned particle gets this close to an idle wall disk between exchanges
         self._wall_margin = self.decomp.ghost_width + 2.0 * float(
             init.radius[init.n_free:].max(initial=0.0))
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.friction)
@@ -179,9 +179,10 @@ class Simulation:
         """Store the wall disks near this rank's sector first and let the step loop move only
         those (clock.n_moved): on 2 ranks the other half of the ~320 wall disks cost ~1 us per
         step for nothing. "Near": within the ghost width plus a wall diameter of the sector, so
-        no owned particle can touch another wall disk before the next build (both move less
-        than skin/2 until then). Every wall disk lies in some sector, so the ranks together
-        still move all of them and the per-step maxima stay global. Redone at every build:
+        no owned particle can touch another wall disk before the next exchange (both move less
+        than half the ghost margin until then, see Decomposition.needs_exchange). Every wall
+        disk lies in some sector, so the ranks together still move all of them and the
+        per-step maxima stay global. Redone at every exchange:
         the inner ring carries its disks from sector to sector. ``idle``: how many wall disks,
         stored last, the step loop did not move (placed here first)."""
         clock, ps = self.clock, self.ps

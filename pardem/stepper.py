@@ -9,8 +9,8 @@ many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
     ghosts      under MPI: neighbours' boundary particles refreshed (x, v_pred, w_pred), and
                 every rank learns the global largest displacement and speed (mpi_native.py)
     (stop here and return NEED_REBUILD if any body moved more than skin/2 since the last
-     neighbour build; the caller rebuilds the list, migrating particles between ranks, and
-     calls ``advance`` again, which resumes)
+     neighbour build; the caller rebuilds the list, under MPI migrating particles between
+     ranks when needed, and calls ``advance`` again, which resumes)
     forces      pair contacts in canonical pair order, then flat ring contacts
     half kick   (then bottom friction)
 
