@@ -119,8 +119,9 @@ class Clock(NamedTuple):
     r_out_ref[0] (float array, m): outer-ring radius at the last neighbour build.
     reach[0] (m): bound on how much any overlap can change in half a step, 2 max|v| dt/2
     (pairs that close to touching get their share of the damping force).
-    disp[0] (m): the largest displacement of any body since the last neighbour build, over all
-    ranks, as of the last step (under MPI it decides whether a build must also exchange).
+    disp[0] (m): the largest displacement of any body since the previous neighbour build, over
+    all ranks, at the step that asked for the latest build (under MPI it decides whether a
+    build must also exchange).
     """
 
     step: np.ndarray

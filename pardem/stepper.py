@@ -364,10 +364,10 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 if bad_any:
                     return BAD_PARTICLE, bad
                 clock.reach[0] = math.sqrt(v2) * prm.dt  # 2 max|v| dt/2
-                clock.disp[0] = disp
                 # the list must hold every pair within reach of touching:
                 # 2 max_disp + reach <= skin
                 if disp + 0.5 * clock.reach[0] > 0.5 * prm.skin:
+                    clock.disp[0] = disp
                     return NEED_REBUILD, -1
             forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], fx, work)
             kick(ps, n_move, h, prm, fx, True)

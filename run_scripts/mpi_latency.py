@@ -1,9 +1,9 @@
 """Cost of the per-step MPI work on this machine, called from compiled code as the step loop
 does: one neighbour exchange (Irecv + Isend + Waitall) of a given size, the same exchange
 through the shared-memory window (write the block, publish the step, await the neighbour's,
-read its block: ``mpi_native.refresh_ghosts``), one 3-value MPI_Allreduce, and the wait of an exchange of 50 ghosts with compute between the post and the
-wait, with and without one MPI_Testall half way (does MPI move the message meanwhile?). Run on
-2 ranks:
+read its block, as ``mpi_native.refresh_ghosts`` does), one 3-value MPI_Allreduce, and the
+wait of an exchange of 50 ghosts with compute between the post and the wait, with and without
+one MPI_Testall half way (does MPI move the message meanwhile?). Run on 2 ranks:
 
     mpiexec -n 2 python -m mpi4py run_scripts/mpi_latency.py
 
