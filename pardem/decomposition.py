@@ -1,12 +1,13 @@
 """Sector decomposition under MPI: migration with contact history, ghost selection, balancing,
 and the gathers and reductions of output and diagnostics (mpi4py).
 
-Stage: communication at neighbour-list builds and output times; the per-step ghost refresh is
-compiled into the step loop (``mpi_native.py``). These are the only two modules that talk MPI.
+Stage: communication at exchanges (the neighbour builds that migrate particles and select
+ghosts) and at output times; the per-step ghost refresh is compiled into the step loop
+(``mpi_native.py``). These are the only two modules that talk MPI.
 
 Most neighbour builds only rebuild each rank's lists: the ghosts are selected with a margin
 (``GHOST_MARGIN_SKINS``) and stay valid until the bodies have moved half of it
-(``needs_exchange``). At a build that needs an exchange, every rank (collectively):
+(``exchange_due``). At a build that needs an exchange, every rank (collectively):
 1. re-cuts the sectors if the particle counts drifted apart by more than ``balance_threshold``
    (cuts placed on a global angular histogram, identical on every rank; checked at every
    ``REBALANCE_EVERY``-th exchange);
@@ -16,7 +17,8 @@ Most neighbour builds only rebuild each rank's lists: the ghosts are selected wi
    will need as ghosts: those within ``ghost_width`` of its sector (largest free diameter +
    skin, which covers every pair the Verlet list can hold, + the margin);
 3. fixes the per-step refresh plan (``mpi_native.Halo``): the same particles in the same order.
-Wall disks are prescribed (a function of time only), so every rank moves all of them itself.
+Wall disks are prescribed (a function of time only): every rank holds all of them and places them
+itself, the ones near its sector at every step, the others at exchanges and before output.
 On one rank all of this is skipped: nothing to migrate, no ghosts, no messages.
 """
 
@@ -38,10 +40,10 @@ History = tuple[np.ndarray, np.ndarray, np.ndarray]  # (gid_lo, gid_hi, xi [m,2]
 HIST_BINS = 4096
 REBALANCE_EVERY = 2  # exchanges between balance checks (counts drift slowly)
 # Ghosts are selected this many skins wider than an interaction needs, so that most builds
-# keep the ghosts and owners and only rebuild the lists locally (see needs_exchange).
+# keep the ghosts and owners and only rebuild the lists locally (see exchange_due).
 GHOST_MARGIN_SKINS = 4.0
-# Largest ghost refresh (doubles a rank sends per step) that goes through shared memory: above
-# ~200 ghosts per neighbour, messages (a single copy by MPICH) were faster here
+# Largest ghost refresh (doubles any rank sends per step, to all its neighbours together) that goes
+# through shared memory: above ~200 ghosts, messages (a single copy by MPICH) were faster here
 # (run_scripts/mpi_latency.py); below, shared memory saves the ~1.4 us message latency.
 SHARED_HALO_LIMIT = HEADER + GHOST_VALUES * 200
 
@@ -59,7 +61,6 @@ class Decomposition:
         self.ghost_width = reach_width + margin
         self.drift = 0.0  # bound on any body's displacement since the last exchange (m)
         self.n_exchanges = 0
-        self.inner_radius = inner_radius
         self.balance_threshold = balance_threshold
         self.sectors = sec.single()
         self.halo: Halo = serial_halo()
@@ -69,9 +70,9 @@ class Decomposition:
         self._handles = collective_handles(comm) if self.comm else None
         # the per-step ghost refresh goes through shared memory if all ranks are on one node
         self.shared_halo = SharedWindow.usable(comm) if self.comm else False
-        self.window: SharedWindow | None = None  # made (or grown) at a build, to its size
+        self.window: SharedWindow | None = None  # made (or grown) at an exchange, to its size
         self.n_windows = 0
-        self.n_shared_builds = 0  # exchanges after which the refresh went through shared memory
+        self.n_shared_exchanges = 0  # exchanges after which the refresh used shared memory
         if self.size > 1 and inner_radius > 0.0:
             arc = 2.0 * math.pi * inner_radius / self.size
             if arc < reach_width:
@@ -151,15 +152,18 @@ class Decomposition:
         self.n_rebalanced += 1
 
     # -- neighbour build -------------------------------------------------------------------
-    def needs_exchange(self, disp: float) -> bool:
-        """At a neighbour build, given the largest displacement since the last build (global):
-        must particles migrate and ghosts be selected again, or may this rank only rebuild its
-        lists? The ghosts were selected ``margin`` wider than the reach of a listed pair, and
-        every owned particle lay in the sector, so while no body has moved more than margin/2
-        since then, every partner of an owned particle within the reach is still here (its
-        distance to the sector then is at most reach + 2 x margin/2). The sum of the builds'
-        largest displacements bounds that motion. Every rank gets the same answer (``disp``
-        is global). One rank: never."""
+    def exchange_due(self, disp: float) -> bool:
+        """Call once per neighbour build, with the largest displacement since the last build
+        (global): it adds ``disp`` to the motion since the last exchange (``drift``, reset by
+        ``distribute``) and answers whether particles must migrate and ghosts be selected again,
+        or whether this rank may only rebuild its lists.
+
+        Why that is safe: the ghosts were selected ``margin`` wider than the reach of a listed
+        pair, and every owned particle lay in the sector, so while no body has moved more than
+        margin/2 since then, every partner of an owned particle within the reach is still here
+        (its distance to the sector then is at most reach + 2 x margin/2). The sum of the
+        builds' largest displacements bounds that motion. Every rank gets the same answer
+        (``disp`` is global). One rank: never."""
         if not self.comm:
             return False
         self.drift += disp
@@ -172,9 +176,12 @@ class Decomposition:
         exchange ghosts, in one round (``migration.exchange_rows``; it sets the counts in
         clock); sets ``self.halo`` for the ghosts' per-step refresh. Springs: ``history`` if
         given (a restart), else the non-zero ones of ``pairs``. If ps is large enough, the new
-        rows are stored in it, the wall disks (the ``idle`` last ones placed at time t) arranged
-        near-first, and the lists built. Returns ``(written, moved, own, walls, ghosts, lists,
-        history)``: lists as from exchange_rows, the rest as from ``receive_rows``."""
+        rows are stored in it, the wall disks (the ``idle`` last ones placed at time t, s)
+        arranged near-first, those within ``wall_margin`` (m) of the sector counted as near, and
+        the lists built (pair list, and the ring-contact candidates if ``ring_walls``; springs
+        only if ``friction``; ``prm``: the step loop's Params). Returns ``(written, moved, own,
+        walls, ghosts, lists, history)``: lists as from exchange_rows, the rest as from
+        ``receive_rows``."""
         lo, hi, xi = history if history is not None else NO_SPRINGS
         err, (written, moved, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
             (peer_at, need), lists = exchange_rows(
@@ -189,7 +196,7 @@ class Decomposition:
         self.drift = 0.0
         # every rank knows need: all take the same branches
         shared = self.shared_halo and need <= SHARED_HALO_LIMIT
-        self.n_shared_builds += shared
+        self.n_shared_exchanges += shared
         if shared and (self.window is None or need > self.window.cap):
             if self.window is not None:
                 self.window.free()

@@ -1,10 +1,12 @@
-"""Compiled neighbour-build exchange under MPI: migration with contact history and ghost
-selection in one round, then the new layout of the rows and the per-step refresh plan.
+"""Compiled exchange under MPI (the neighbour builds that ``Decomposition.exchange_due``
+selects): migration with contact history and ghost selection in one round, then the new layout
+of the rows and the per-step refresh plan.
 
 Stage: neighbour rebuild (``decomposition.distribute`` calls ``exchange_rows``; the collective
 itself is ``mpi_native.alltoallv``). Done as ~80 numpy and mpi4py calls with the interpreter's
 caches cold after the step loop, the glue of a build cost more than its work, so the whole
-build (exchange, layout, lists) is one compiled call around one Alltoall + Alltoallv.
+exchange build (exchange, layout, lists) is one compiled call around one Alltoall +
+Alltoallv. The other builds are one compiled call too (``neighbors.build_lists``).
 
 One round suffices because the sender knows where each of its particles goes: to rank r it
 sends the particles r will own (migrants, with the springs of their listed pairs) and the
@@ -44,11 +46,11 @@ def _destination(gid, mig_gid, mig_dest):
 def exchange_rows(ps, pairs, clock, n_move, n_local, idle, edges, rank, ghost_width, width,
                   x_col, from_list, lo, hi, xi, t, prm, wall_margin, handles, shared,
                   friction, ring_walls):
-    """The whole exchange of a neighbour build (collective): ``send_rows``, ``receive_rows``,
+    """The whole exchange (collective): ``send_rows``, ``receive_rows``,
     with a ``shared`` memory refresh ``mpi_native.peer_offsets``, and the new counts in clock.
     If the rows were written, also the lists (``neighbors.build_lists``, springs carried from
     the merged ones): one compiled call for the whole build, since at a build each call from
-    Python costs ~50 us to dispatch. Returns ``(mpi_error, received, peers, lists)``: received
+    Python costs tens of us to dispatch. Returns ``(mpi_error, received, peers, lists)``: received
     as from receive_rows, peers (peer_at, need) or empty, lists (pair count, ring candidate
     count) from build_lists, or (-1, -1) if not built."""
     rbuf, recv_off, owner, lo, hi, xi, err = send_rows(ps, pairs, n_move, edges, rank,

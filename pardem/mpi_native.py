@@ -9,11 +9,11 @@ usable (the address is resolved when the cached code is loaded, not baked into i
 
 One message per neighbour rank per step, in each direction: a 3-value header (bad-particle flag,
 largest displacement since the neighbour build, largest squared speed) followed by x, y,
-v_pred x, v_pred y, w_pred of each ghost, in the order fixed at the last neighbour build. A
+v_pred x, v_pred y, w_pred of each ghost, in the order fixed at the last exchange. A
 particle near both edges of a 2-rank cell is sent once, and the two edges share one ordered
-stream, so edges cannot mix. If the neighbour sets do not cover all ranks (P > 3), the header
-maxima are completed by one ``MPI_Allreduce``; otherwise the headers already hold the global
-maxima and no collective is needed.
+stream, so edges cannot mix. If the neighbour sets do not cover all ranks (possible from P = 4
+on; checked at every exchange), the header maxima are completed by one ``MPI_Allreduce``;
+otherwise the headers already hold the global maxima and no collective is needed.
 
 When all ranks share one node with a core each (the usual case for this code), small ghost
 refreshes do not travel as messages at all: each rank owns a slice of one MPI-3 shared-memory
@@ -22,7 +22,7 @@ number with a release store, and reads its neighbours' blocks once their step nu
 (acquire loads). For 50 ghosts that took 0.6-1.7 us against 1.9-2.9 us for Irecv + Isend +
 Waitall, whose shared-memory messages move only inside an MPI call; from a few hundred ghosts
 on, messages are faster (``run_scripts/mpi_latency.py``), so the decomposition chooses by size
-at each build. Two buffers, alternating with the step's parity, keep a fast rank from
+at each exchange. Two buffers, alternating with the step's parity, keep a fast rank from
 overwriting blocks a neighbour is still reading: it cannot get two steps ahead, because every
 step waits for the neighbours' step numbers. A wait longer than ~5 us yields the core at every
 further look. ``PARDEM_HALO=messages`` forces messages.
@@ -69,7 +69,6 @@ _I, _P = types.int32, types.intp
 mpi_irecv = types.ExternalFunction("MPI_Irecv", _I(_P, _I, _H, _I, _I, _H, _P))
 mpi_isend = types.ExternalFunction("MPI_Isend", _I(_P, _I, _H, _I, _I, _H, _P))
 mpi_waitall = types.ExternalFunction("MPI_Waitall", _I(_I, _P, _P))
-mpi_testall = types.ExternalFunction("MPI_Testall", _I(_I, _P, _P, _P))  # run_scripts only
 mpi_allreduce = types.ExternalFunction("MPI_Allreduce", _I(_P, _P, _I, _H, _H, _H))
 mpi_wtime = types.ExternalFunction("MPI_Wtime", types.float64())
 sched_yield = types.ExternalFunction("sched_yield", _I())  # libc
@@ -100,7 +99,7 @@ def store_release(typingctx, arr, idx, value):
 
 
 class Halo(NamedTuple):
-    """Plan of the per-step ghost refresh, rebuilt with the neighbour list.
+    """Plan of the per-step ghost refresh, made anew at every exchange.
 
     nbr [k] int64: neighbour ranks. send_idx [s] int64: local indices of owned particles sent,
     neighbour by neighbour (``send_off`` [k+1] offsets). recv_off [k+1]: the ghosts received
@@ -111,9 +110,9 @@ class Halo(NamedTuple):
     its buffer. ints: active (0 on one rank: no MPI call at all), comm, MPI_DOUBLE, MPI_MAX
     handles, request size in bytes, use_allreduce, shared memory (1) or messages (0), cap
     (doubles per buffer), this rank.
-    wait [1] (s): time spent in MPI_Waitall and MPI_Allreduce, accumulated over the run (the
-    decomposition passes the same array to every new plan): the exchange latency plus the
-    wait for slower neighbours.
+    wait [1] (s): time spent waiting for the neighbours' blocks (shared memory) or in
+    MPI_Waitall, and in MPI_Allreduce, accumulated over the run (the decomposition passes the
+    same array to every new plan): the exchange latency plus the wait for slower neighbours.
     """
 
     nbr: np.ndarray

@@ -43,12 +43,8 @@ class Sectors(NamedTuple):
         """Distance (m) of points x [n,2] outside sector ``rank`` from that sector."""
         return _distance(x, self.edges, rank)
 
-    def arc_width(self, radius: float) -> float:
-        """Narrowest sector's arc length (m) at the given radius."""
-        return float(np.min(np.diff(self.edges)) * radius)
 
-
-# Compiled: called at every neighbour build, where numpy's per-call overhead dominated.
+# Compiled: called at every exchange, where numpy's per-call overhead dominated.
 @nb.njit(**JIT)
 def owners(x, edges, guess):
     """Rank owning each point of x [n,2] (``Sectors.owner``)."""

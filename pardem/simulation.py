@@ -48,6 +48,11 @@ class Simulation:
     ``Simulation(scene, out_dir=None, restart=None)``; ``run(end=None, progress=True)``.
     Attributes: ``ps`` (Particles), ``pairs`` (Pairs), ``clock`` (Clock), ``prm`` (Params),
     ``dt`` (s), ``time`` (s), ``timers`` (s per stage), ``n_rebuilds``.
+
+    With ``comm`` (an mpi4py communicator), every method that advances or gathers is
+    collective. An exception on one rank leaves the others waiting in the next collective or
+    ghost refresh: a caller must then abort the communicator (``pardem run`` calls
+    ``MPI_Abort``; the tests' conftest does the same).
     """
 
     def __init__(self, scene: Scene, out_dir: str | Path | None = None,
@@ -108,6 +113,7 @@ class Simulation:
         unpack_particles(rows, self.ps, 0)
         self.clock.n_move[0] = mine.size
         self.clock.n_local[0] = rows.shape[0]
+        self.clock.n_moved[0] = rows.shape[0]  # every wall disk is at time t: none idle yet
         # _order_walls: no owned particle gets this close to an idle wall disk between exchanges
         self._wall_margin = self.decomp.ghost_width + 2.0 * float(
             init.radius[init.n_free:].max(initial=0.0))
@@ -154,9 +160,9 @@ class Simulation:
 
     def _exchange(self, history, rebalance: bool):
         """Under MPI: migrate owned particles that left the sector, exchange ghosts, lay the
-        rows out again as [owned | wall disks | ghosts] and, if they fit, build the lists. At
-        most builds nothing migrates; then the owned rows and wall disks stay where they are
-        and only the ghost rows are written. Returns the spring history with the migrants'
+        rows out again as [owned | wall disks | ghosts] and, if they fit, build the lists. If
+        nothing migrated, the owned rows and wall disks stay where they are and only the ghost
+        rows are written. Returns the spring history with the migrants'
         springs merged in, and (pair count, ring candidate count) of the lists, or (-1, -1)
         if they were not built."""
         clock, ps, friction = self.clock, self.ps, self.friction
@@ -179,8 +185,9 @@ class Simulation:
         """Store the wall disks near this rank's sector first and let the step loop move only
         those (clock.n_moved): on 2 ranks the other half of the ~320 wall disks cost ~1 us per
         step for nothing. "Near": within the ghost width plus a wall diameter of the sector, so
-        no owned particle can touch another wall disk before the next exchange (both move less
-        than half the ghost margin until then, see Decomposition.needs_exchange). Every wall
+        no owned particle can touch another wall disk before the next exchange (until then
+        each body moves at most half the ghost margin plus the half skin that triggers a
+        build, see Decomposition.exchange_due: well inside the margin). Every wall
         disk lies in some sector, so the ranks together still move all of them and the
         per-step maxima stay global. Redone at every exchange:
         the inner ring carries its disks from sector to sector. ``idle``: how many wall disks,
@@ -194,8 +201,9 @@ class Simulation:
 
     def _place_idle_walls(self) -> None:
         """Bring the wall disks the step loop does not move (clock.n_moved onwards) to the
-        current time: at builds, and whenever control returns to Python (output, diagnostics,
-        checkpoints see every wall disk where it is)."""
+        current time whenever control returns to Python (output, diagnostics and checkpoints
+        see every wall disk where it is; exchanges place them in ``arrange_walls``). Builds
+        that do not exchange leave them where they are: no owned particle is near them."""
         first, last = int(self.clock.n_moved[0]), int(self.clock.n_local[0])
         if last > first:
             place_wall_disks(self.ps, first, last, self.time, self.prm, False)
@@ -297,7 +305,7 @@ class Simulation:
             t1 = time.perf_counter()
             self.timers["forces+integration"] += t1 - t0
             if status == NEED_REBUILD:  # every rank returns at the same step (global maxima)
-                self._rebuild(exchange=self.decomp.needs_exchange(float(self.clock.disp[0])))
+                self._rebuild(exchange=self.decomp.exchange_due(float(self.clock.disp[0])))
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
             elif status == BAD_PARTICLE:
                 message = self._bad_particle_message(bad) if bad >= 0 else None
@@ -350,8 +358,11 @@ class Simulation:
             rows.insert(1, f"    of which waiting on neighbours {wait:9.3f} s  "
                            f"{100 * wait / total:5.1f} % (exchange latency + imbalance)")
         steps = int(self.clock.step[0])
+        builds = f"{self.n_rebuilds} neighbour builds"
+        if self.decomp.parallel:
+            builds += f", {self.decomp.n_exchanges} of them with an exchange"
         return "\n".join([f"time per stage on rank {self.decomp.rank} ({steps} steps, "
-                          f"{self.n_rebuilds} neighbour builds; {self.decomp.describe()}):",
+                          f"{builds}; {self.decomp.describe()}):",
                           *rows])
 
     def _bad_particle_message(self, k: int) -> str:
@@ -427,7 +438,7 @@ class Simulation:
                 "radius": ps.radius[rows], "mass": ps.mass[rows], "force": ps.f[rows],
                 "torque": ps.tau[rows]}
         mine["rank"] = np.full(mine["id"].size, self.decomp.rank, np.int32)
-        mine["rank"][n_move:] = -1  # wall disks: prescribed, moved by every rank
+        mine["rank"][n_move:] = -1  # wall disks: prescribed, every rank holds all of them
         out = self.decomp.gather_rows(mine, key="id")
         if out is None:
             return None

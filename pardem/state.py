@@ -114,7 +114,7 @@ class Clock(NamedTuple):
     n_move[0]: particles integrated (the leading block: free particles this rank owns).
     n_local[0]: owned particles + wall disks. n_moved[0] <= n_local[0]: owned particles + the
     wall disks near this rank's sector, stored first: the bodies the step loop moves (the
-    other wall disks are placed at neighbour builds and before output; one rank: all).
+    other wall disks are placed at exchanges and before output; one rank: all).
     n_ghost[0]: ghost copies of other ranks' particles, stored after them (0 on one rank).
     r_out_ref[0] (float array, m): outer-ring radius at the last neighbour build.
     reach[0] (m): bound on how much any overlap can change in half a step, 2 max|v| dt/2

@@ -8,9 +8,11 @@ many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
                 predict v(t+dt) = v + dt/2 f(t)/m for the velocity-dependent forces
     ghosts      under MPI: neighbours' boundary particles refreshed (x, v_pred, w_pred), and
                 every rank learns the global largest displacement and speed (mpi_native.py)
-    (stop here and return NEED_REBUILD if any body moved more than skin/2 since the last
-     neighbour build; the caller rebuilds the list, under MPI migrating particles between
-     ranks when needed, and calls ``advance`` again, which resumes)
+    (stop here and return NEED_REBUILD if a pair not in the list could now be within reach
+     of touching: largest displacement since the last neighbour build + half the distance
+     the fastest body covers in a step > skin/2; the caller rebuilds the list, under MPI
+     migrating particles between ranks when ``exchange_due``, and calls ``advance`` again,
+     which resumes)
     forces      pair contacts in canonical pair order, then flat ring contacts
     half kick   (then bottom friction)
 

@@ -65,13 +65,13 @@ def place_wall_disks(ps, first, last, t, prm, settled):
 
 
 @nb.njit(**JIT)
-def arrange_walls(ps, first, idle, end, t, prm, edges, rank, margin, width):
-    """Under MPI, at a neighbour build: place the idle wall disks ps[idle:end] at time t (the
-    step loop moved only ps[first:idle]), then store the wall disks ps[first:end] that are
+def arrange_walls(ps, first, first_idle, end, t, prm, edges, rank, margin, width):
+    """Under MPI, at an exchange: place the idle wall disks ps[first_idle:end] at time t (the
+    step loop moved only ps[first:first_idle]), then store the wall disks ps[first:end] that are
     within ``margin`` (m) of sector ``rank`` (edges: the sector edges, rad) or inside it first.
-    Returns how many that is. ``width``: columns of a packed row. One compiled call: at a
-    build, every call from Python that passes the particle arrays costs tens of us."""
-    place_wall_disks(ps, idle, end, t, prm, False)
+    Returns how many that is. ``width``: columns of a packed row. One compiled call: at an
+    exchange, every call from Python that passes the particle arrays costs tens of us."""
+    place_wall_disks(ps, first_idle, end, t, prm, False)
     close = near(ps.x[first:end], edges, rank, margin)
     n_near = int(close.sum())
     if not close[:n_near].all():  # not yet stored near-first

@@ -281,12 +281,12 @@ class Study:
                 f"per simulated second against {v['cost'][-1]['wall_per_sim_s']:.3g} s at "
                 f"t_c/{ns[-1]}; t_c/{ns[0]} takes {v['cost'][0]['wall_per_sim_s']:.3g} s but "
                 f"misses e_n by {v['collision'][0]['e_n']:.1e}.")
+            extra = 100 * (v['cost'][k50]['step_s'] / hs['cost'][k50]['step_s'] - 1)
             md.append(
                 f"- **integrator = \"verlet\"** (predicted velocities + damping window): at "
                 f"t_c/{ns[k50]} its e_n error is {v['collision'][k50]['e_n']:.1e} against "
                 f"{hs['collision'][k50]['e_n']:.1e} for the plain half-step Verlet of LAMMPS "
-                f"GRANULAR, for {100 * (v['cost'][k50]['step_s'] / hs['cost'][k50]['step_s'] - 1):+.0f}"
-                " % of the time per step; its orders in table 1.")
+                f"GRANULAR, for {extra:+.0f} % of the time per step; its orders in table 1.")
         if "skin" in r:
             rows = r["skin"]["rows"]
             best = min(range(len(rows)), key=lambda k: rows[k]["step_s"])

@@ -16,9 +16,14 @@ import time
 import numba as nb
 import numpy as np
 from mpi4py import MPI
+from numba.core import types
 
 from pardem.mpi_native import (SEQ, SharedWindow, load_acquire, mpi_allreduce, mpi_irecv,
-                               mpi_isend, mpi_testall, mpi_waitall, mpi_wtime, store_release)
+                               mpi_isend, mpi_waitall, mpi_wtime, store_release)
+
+# resolved in the libmpi that pardem.mpi_native loaded
+mpi_testall = types.ExternalFunction("MPI_Testall", types.int32(types.int32, types.intp,
+                                                                 types.intp, types.intp))
 
 
 @nb.njit

@@ -198,7 +198,8 @@ def test_two_contact_case_by_hand():
     expected = {
         "vol": vol, "count": 1.0, "mom_phi": vol * 0.02, "mom_r": 0.0, "spin": vol * 0.5,
         "coord": 2 * vol, "fabric_rr": vol, "fabric_phiphi": vol, "fabric_rphi": 0.0,
-        # -f (x) l: contact 1 f = (-k_n d1, ft), l = (l1, 0); contact 2 f = (0, k_n d2), l = (0, -l2)
+        # -f (x) l: contact 1 f = (-k_n d1, ft), l = (l1, 0);
+        # contact 2 f = (0, k_n d2), l = (0, -l2)
         "stress_rr": k_n * d1 * l1, "stress_phir": -ft * l1, "stress_rphi": 0.0,
         "stress_phiphi": k_n * d2 * l2,
         # Delta = d n - xi: contact 1 (-d1, -xi1), contact 2 (0, d2)

@@ -138,7 +138,8 @@ def test_ring_averages_show_the_papers_physics(sheared_b):
     torque = np.array(sim.torques)
     t_mean, t_err = torque.mean(), torque.std(ddof=1) / np.sqrt(torque.size)
     print(f"\n2 pi h r^2 sigma_phir over rings 1 < r~ < 15: mean {mean:.4f} N m, ring-to-ring "
-          f"spread {spread:.4f} (per-ring standard error ~{np.median(f['shear_torque_err'][zone]):.4f}); "
+          f"spread {spread:.4f} (per-ring standard error "
+          f"~{np.median(f['shear_torque_err'][zone]):.4f}); "
           f"torque on the inner ring {t_mean:.4f} +- {t_err:.4f} N m; v_phi fit v0 = "
           f"{f['fit_v0']:.3f}, s = {f['fit_s']:.3f}")
     assert spread < 0.15 * abs(mean)  # flat across the rings

@@ -48,7 +48,7 @@ def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
     """On 2 and 3 ranks with the ghosts refreshed through shared memory (the default on one
     node with a core per rank; by messages when oversubscribed), on 2 ranks also by messages,
     once with a shared window that has to grow, and once switching between shared memory and
-    messages from build to build (a limit inside the range of refresh sizes, 68-93 doubles)."""
+    messages from exchange to exchange (a limit inside the range of refresh sizes)."""
     scene = fast_shear_scene(tmp_path)
     steps = 20_000
     ref = dump_state(scene, steps, tmp_path / "r1.npz", 1)
@@ -62,13 +62,13 @@ def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
         label = f"{n} ranks {extra} {env or ''} vs 1"
         got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n, *extra, env=env)
         assert got["migrated"] >= 100, f"{label}: only {got['migrated']} migrations"
-        # most builds keep the ghosts (needs_exchange); the lists stay complete at every one
+        # most builds keep the ghosts (exchange_due); the lists stay complete at every one
         assert 100 < got["exchanges"] < got["rebuilds"] // 2, label
         if extra == check:
             assert got["lists_checked"] == got["rebuilds"], label
         assert got["shared_windows"] == (windows if n <= cores else 0), label
         if extra[:1] == ("--shared-limit",):
-            assert 0 < got["shared_builds"] < got["exchanges"] - 20, label
+            assert 0 < got["shared_exchanges"] < got["exchanges"] - 20, label
         assert_same_state(ref, got, label)
 
 

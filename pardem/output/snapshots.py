@@ -24,7 +24,8 @@ are stored with a third component z = 0, as ParaView wants; ``read_snapshots`` d
 Crash safety: a snapshot group is written under a temporary name and renamed when complete, the
 file is opened, appended and closed for every snapshot, and the XDMF indexes are rewritten
 (temporary name, then rename) only after the HDF5 file is closed, so they list complete
-snapshots only (tested by killing runs with SIGKILL at random moments). A process killed between snapshots leaves every earlier snapshot readable.
+snapshots only (tested by killing runs with SIGKILL at random moments). A process killed
+between snapshots leaves every earlier snapshot readable.
 """
 
 from __future__ import annotations

@@ -100,7 +100,7 @@ def main():
                  lists_checked=CHECKED[0], rebalanced=sim.decomp.n_rebalanced,
                  idle_walls=idle_walls, idle_wall_pairs=idle_pairs,
                  shared_windows=sim.decomp.n_windows,
-                 shared_builds=sim.decomp.n_shared_builds)
+                 shared_exchanges=sim.decomp.n_shared_exchanges)
 
 
 if __name__ == "__main__":
