@@ -83,15 +83,23 @@ def test_kill_9_then_restart_reproduces_the_uninterrupted_run(tmp_path):
     assert ref.returncode == 0, ref.stderr
     out = tmp_path / "killed"
     proc = subprocess.Popen(cli + ["--out", str(out), "--end", "5.0"], stderr=subprocess.DEVNULL)
-    deadline = time.time() + 120
-    while time.time() < deadline:  # after the checkpoint at 0.2 s, in the middle of a run
+    deadline = time.time() + 300  # a cold numba cache compiles for a minute or more
+    reached = False
+    while time.time() < deadline and proc.poll() is None:
+        # after the checkpoint at 0.2 s, in the middle of a run
         if (out / "checkpoint.h5").exists():
             with h5py.File(out / "checkpoint.h5") as h5:
-                if h5.attrs["time"] > 0.15:
-                    break
+                reached = h5.attrs["time"] > 0.15
+            if reached:
+                break
         time.sleep(0.02)
-    os.kill(proc.pid, signal.SIGKILL)
+    exited = proc.poll()
+    if exited is None:
+        os.kill(proc.pid, signal.SIGKILL)
     proc.wait(timeout=30)
+    assert reached and exited is None, (
+        f"the run to be killed {'exited with ' + str(exited) if exited is not None else 'ran'} "
+        "without reaching its 0.2 s checkpoint in time")
     before = list(pardem.read_snapshots(out))
     assert len(before) >= 10 and all(np.isfinite(s["position"]).all() for s in before)
     with h5py.File(out / "checkpoint.h5") as h5:
