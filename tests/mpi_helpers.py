@@ -7,6 +7,7 @@ Always the ``mpiexec`` beside ``sys.executable`` (the mpich wheel that mpi4py us
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 from pathlib import Path
@@ -26,14 +27,21 @@ def run_mpi(args: list[str], n: int, timeout: float = 120, check: bool = True,
     the test on a non-zero exit or timeout."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1", **(env or {}))
     py = [sys.executable, "-m", "mpi4py"] if module else [sys.executable]
-    try:
-        proc = subprocess.run([mpiexec(), "-n", str(n), *py, *args], capture_output=True,
-                              text=True, timeout=timeout, env=env)
-    except subprocess.TimeoutExpired as e:
-        raise AssertionError(f"MPI run on {n} ranks timed out (deadlock?)\n{e.stderr}") from e
-    if check and proc.returncode != 0:
-        raise AssertionError(f"MPI run on {n} ranks failed ({proc.returncode}):\n{proc.stderr}")
-    return proc
+    # a session of its own, so that a timeout kills the ranks and proxies too, not just mpiexec
+    with subprocess.Popen([mpiexec(), "-n", str(n), *py, *args], stdout=subprocess.PIPE,
+                          stderr=subprocess.PIPE, text=True, env=env,
+                          start_new_session=True) as proc:
+        try:
+            out, err = proc.communicate(timeout=timeout)
+        except subprocess.TimeoutExpired:
+            os.killpg(proc.pid, signal.SIGKILL)
+            out, err = proc.communicate()
+            raise AssertionError(f"MPI run on {n} ranks timed out after {timeout} s "
+                                 f"(deadlock?)\n{err}") from None
+    done = subprocess.CompletedProcess(proc.args, proc.returncode, out, err)
+    if check and done.returncode != 0:
+        raise AssertionError(f"MPI run on {n} ranks failed ({done.returncode}):\n{err}")
+    return done
 
 
 def dump_state(scene: Path, steps: int, out: Path, n: int, *extra: str,

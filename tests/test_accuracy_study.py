@@ -1,5 +1,7 @@
 """The accuracy study's short version (tiny inputs, about half a minute), so the script behind
-docs/accuracy.md cannot rot: every section runs and writes finite numbers and its plots."""
+docs/accuracy.md cannot rot: every section but the ranks table (the quick settings run no
+MPI benchmark; section 6 comes from run_scripts/bench.py, which the MPI tests cover) runs and
+writes finite numbers and its plots."""
 
 import re
 import sys

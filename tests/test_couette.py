@@ -120,7 +120,11 @@ def test_inner_ring_drags_a_shear_band(sheared_b):
 def test_ring_averages_show_the_papers_physics(sheared_b):
     """In-situ averages over t = 5 .. 7 s (21 samples): dilation and an exponential v_phi at the
     inner ring, tr F = nu C, and torque balance: 2 pi h r^2 sigma_phir is the same in every
-    ring and equals the torque the inner ring exerts on the particles."""
+    ring and equals the torque the inner ring exerts on the particles. The v_phi fit is
+    checked for its shape, not its values: 2 s after the ring started is not the paper's
+    steady state (v0 = 0.756, s = 1.584), so v0 and s need only be of that order, but the
+    exponential must describe the measured profile: within a factor 1.5 in the typical ring of
+    the paper's fit range 0.25 <= r~ <= 8.1 and within a factor 3 in every one."""
     sim = sheared_b[0]
     f = sim.rings.fields()
     assert len(sim.rings.samples) == 21  # t = 5.0 (nearest step), 5.1, ..., 7.0
@@ -129,6 +133,12 @@ def test_ring_averages_show_the_papers_physics(sheared_b):
     print(f"\nnu: r~ < 3: {f['nu'][near].mean():.3f}, 5 < r~ < 10: {f['nu'][bulk].mean():.3f}")
     assert f["nu"][near].mean() < f["nu"][bulk].mean() - 0.02  # dilated zone at the ring
     assert 0.3 < f["fit_v0"] < 1.5 and 0.5 < f["fit_s"] < 4.0
+    fit_range = (rt >= 0.25) & (rt <= 8.1) & (f["v_phi_norm"] > 0)
+    assert fit_range.sum() >= 40
+    misfit = np.abs(np.log(f["v_phi_norm"][fit_range] / f["fit_v0"]) + rt[fit_range] / f["fit_s"])
+    print(f"v_phi fit: v0 {f['fit_v0']:.3f}, s {f['fit_s']:.3f}; |log(v / fit)| median "
+          f"{np.median(misfit):.3f}, max {misfit.max():.3f} over {fit_range.sum()} rings")
+    assert np.median(misfit) < np.log(1.5) and misfit.max() < np.log(3.0)
     np.testing.assert_allclose(f["tr_F"], f["nu"] * f["C"], rtol=1e-10, atol=1e-12)
     h = sim.scene.contact.height
     carried = 2 * np.pi * h * f["r"] ** 2 * f["sigma_phir"]  # N m, per ring

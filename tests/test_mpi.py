@@ -44,6 +44,7 @@ def test_couette_quick_is_bitwise_identical_on_1_2_3_4_ranks(tmp_path):
     assert ref["idle_walls"] == 0
 
 
+@pytest.mark.timeout(1500)  # six runs, each with its own 120 s limit that names the run
 def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
     """On 2 and 3 ranks with the ghosts refreshed through shared memory (the default on one
     node with a core per rank; by messages when oversubscribed), on 2 ranks also by messages,
@@ -143,7 +144,7 @@ def test_pardem_run_on_2_ranks_writes_the_serial_snapshots(tmp_path):
     log = (tmp_path / "mpi" / "log.txt").read_text().splitlines()
     step = next(float(x.split()[1]) for x in log if x.strip().startswith("forces+integration"))
     wait = next(float(x.split()[5]) for x in log if "of which waiting on neighbours" in x)
-    assert 0.0 < wait < step
+    assert 0.0 <= wait < step
     serial_log = (tmp_path / "serial" / "log.txt").read_text()
     assert "forces+integration" in serial_log and "waiting" not in serial_log
     # the files themselves: every dataset but the owning rank, and the XDMF indexes
@@ -170,6 +171,7 @@ def test_ring_sums_do_not_depend_on_the_number_of_ranks(tmp_path):
     """In-situ averaging: every rank sums its owned particles, one Allreduce per sample; the
     totals of 1, 2 and 3 ranks agree to 1e-12 relative (only the summation order differs)."""
     from averaging.rings import read_rings
+    from averaging.sums import COL
 
     scene = fast_shear_scene(tmp_path, averaging={"start": 0.15, "end": 0.3,
                                                   "sample_interval": 0.05,
@@ -181,7 +183,7 @@ def test_ring_sums_do_not_depend_on_the_number_of_ranks(tmp_path):
         rings = read_rings(tmp_path / f"r{n}")
         sums[n], torques[n] = rings["sums"], rings["inner_torque_samples"]
     assert sums[1].shape[0] == 4  # samples at 0.15, 0.2, 0.25, 0.3 s
-    assert np.abs(sums[1][:, :, 11]).max() > 0  # stress sums: the cell is loaded
+    assert np.abs(sums[1][:, :, COL["stress_rr"]]).max() > 0  # the cell is loaded
     scale = np.abs(sums[1]).max(axis=(0, 1))  # per column
     for n in (2, 3):
         np.testing.assert_allclose(sums[n], sums[1], rtol=0, atol=1e-12 * scale.max())

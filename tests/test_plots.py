@@ -95,5 +95,6 @@ def test_paper_figures_script_writes_figures_table_and_json(small_run, tmp_path)
     assert "decay length s" in table and "torque of the inner ring" in table
     data = json.loads((tmp_path / "comparison.json").read_text())
     (name,) = data["ours"]
-    assert all(isinstance(v, float) for v in data["ours"][name].values())
+    assert all(isinstance(v, float) for v in data["ours"][name].values())  # NaN allowed:
+    # a quantity the short run cannot measure (here the bulk volume fraction) is NaN, not absent
     assert len(list((tmp_path / "scenes").glob("*.toml"))) == 1

@@ -20,8 +20,8 @@ def pair(x2, vx1=0.0, vx2=0.0, vy1=0.0, effects=ALL, y2=0.0):
 
 
 def energy(sim):
-    return sim.total_energy() + 0.5 * np.sum(
-        sim.ps.omega[:2] ** 2 / sim.ps.inv_inertia[:2])
+    """Kinetic (with rotation) + elastic energy (J)."""
+    return sim.total_energy()
 
 
 def analytic_max_overlap(v_rel, m_red):

@@ -1,8 +1,6 @@
 """Nothing is lost and nothing damaged is used: corrupted checkpoints are refused with the file
 named, and a run killed with SIGKILL continues from its last checkpoint bit for bit."""
 
-import os
-import signal
 import subprocess
 import sys
 import time
@@ -83,20 +81,21 @@ def test_kill_9_then_restart_reproduces_the_uninterrupted_run(tmp_path):
     assert ref.returncode == 0, ref.stderr
     out = tmp_path / "killed"
     proc = subprocess.Popen(cli + ["--out", str(out), "--end", "5.0"], stderr=subprocess.DEVNULL)
-    deadline = time.time() + 300  # a cold numba cache compiles for a minute or more
     reached = False
-    while time.time() < deadline and proc.poll() is None:
-        # after the checkpoint at 0.2 s, in the middle of a run
-        if (out / "checkpoint.h5").exists():
-            with h5py.File(out / "checkpoint.h5") as h5:
-                reached = h5.attrs["time"] > 0.15
-            if reached:
-                break
-        time.sleep(0.02)
-    exited = proc.poll()
-    if exited is None:
-        os.kill(proc.pid, signal.SIGKILL)
-    proc.wait(timeout=30)
+    try:
+        deadline = time.time() + 300  # a cold numba cache compiles for a minute or more
+        while time.time() < deadline and proc.poll() is None:
+            # after the checkpoint at 0.2 s, in the middle of a run
+            if (out / "checkpoint.h5").exists():
+                with h5py.File(out / "checkpoint.h5") as h5:
+                    reached = h5.attrs["time"] > 0.15
+                if reached:
+                    break
+            time.sleep(0.02)
+        exited = proc.poll()
+    finally:
+        proc.kill()  # SIGKILL
+        proc.wait(timeout=30)
     assert reached and exited is None, (
         f"the run to be killed {'exited with ' + str(exited) if exited is not None else 'ran'} "
         "without reaching its 0.2 s checkpoint in time")

@@ -7,7 +7,7 @@ two touching contacts with non-zero springs, records the force, spring and torqu
 contacts as computed on *both* ranks, moves the edge just past the particle and rebuilds (the
 particle migrates to rank 1 with its springs), records the same table again, then runs
 AFTER_STEPS more and saves the gathered state (compared with a serial run by the test).
-Every check is collective; a failure raises on all ranks.
+A failed check raises on the rank that finds it; ``python -m mpi4py`` then aborts every rank.
 """
 
 import sys
