@@ -16,6 +16,7 @@ import pytest
 from helpers import couette_scene
 
 import pardem
+from averaging.mesh import SEGMENTS
 from averaging.rings import read_rings
 from pardem.scene import write_scene
 from pardem.simulation import Simulation
@@ -118,7 +119,7 @@ def test_rings_vtu_carries_the_ring_fields(run):
     rings = read_rings(out)
     mesh = pv.read(out / "rings.vtu")
     n = rings["nu"].size
-    assert mesh.n_cells == n * 120
+    assert mesh.n_cells == n * SEGMENTS
     ring = mesh.cell_data["ring"]
     for key in ("nu", "v_phi", "tr_sigma", "mu_c", "C", "nu_err"):
         np.testing.assert_array_equal(mesh.cell_data[key], rings[key][ring], key)
@@ -244,5 +245,5 @@ def test_paraview_itself_opens_the_run(run):
     assert (c["points"], c["cells"]) == (n, contacts["ids"].shape[0])
     assert {"normal_force", "tangential_force", "sliding"} <= set(c["cell_arrays"])
     r = seen["rings.vtu"]
-    assert r["cells"] == fields["nu"].size * 120
+    assert r["cells"] == fields["nu"].size * SEGMENTS
     assert {"nu", "mu_c", "sigma"} <= set(r["cell_arrays"])
