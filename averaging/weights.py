@@ -17,9 +17,9 @@ Both telescope: the weights of one disk sum to 1 exactly when the rings cover it
 r0 is given to ring 0 and area beyond the last ring to ring n-1, so the sum is always 1 (a
 particle pressed into a ring surface reaches a little past it), and the last ring a disk
 reaches takes whatever share is left, so rounding can never lose weight. Near a tangent line or
-circle the formulas lose digits (acos near +-1: A(R) came out 1e-10 above pi a^2 for a rim exactly on
-a ring edge), so the cumulative area is kept within [0, pi a^2] and non-decreasing: no weight
-is ever negative, and the sum still telescopes to 1.
+circle the formulas lose digits (acos near +-1: A(R) came out 1e-10 above pi a^2 for a rim
+exactly on a ring edge), so the cumulative area is kept within [0, pi a^2] and non-decreasing:
+no weight is ever negative, and the sum still telescopes to 1.
 """
 
 from __future__ import annotations

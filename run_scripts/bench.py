@@ -100,8 +100,8 @@ def throughput(steps: int, repeats: int, ranks: list[int]) -> dict[int, float]:
                 rates[p].append(res["n_free"] * steps / res["wall"])
                 print(f"{p} rank(s), run {k + 1}: {steps} steps in {res['wall']:.3f} s -> "
                       f"{rates[p][-1] / 1e6:.2f} M flow-particle-steps/s "
-                      f"({steps / res['wall']:.0f} steps/s, {res['rebuilds']} neighbour builds, ghosts per rank "
-                      f"{res['ghosts']})", flush=True)
+                      f"({steps / res['wall']:.0f} steps/s, {res['rebuilds']} neighbour builds, "
+                      f"ghosts per rank {res['ghosts']})", flush=True)
     medians = {}
     for p in ranks:
         res = last[p]
