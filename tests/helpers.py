@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import time
 
 from pardem.scene import scene_from_dict
 from pardem.verification import dense_packing  # noqa: F401 (re-exported for the tests)
@@ -10,6 +11,25 @@ from pardem.verification import dense_packing  # noqa: F401 (re-exported for the
 D_SMALL, M_SMALL = 7.42e-3, 0.275e-3
 D_LARGE, M_LARGE = 8.99e-3, 0.490e-3
 K_N, GAMMA_N, K_T, MU = 352.1, 0.19, 267.1, 0.44
+
+def kill_when(proc, ready, timeout: float = 300.0, poll: float = 0.02):
+    """Wait until ``ready()`` is true, the child ``proc`` exits or ``timeout`` s pass (a cold
+    numba cache compiles for a minute or more), then SIGKILL and reap it, whatever happens.
+    Returns ``(ready, exit code before the kill or None)``."""
+    reached, exited = False, None
+    try:
+        deadline = time.time() + timeout
+        while time.time() < deadline and proc.poll() is None:
+            reached = ready()
+            if reached:
+                break
+            time.sleep(poll)
+        exited = proc.poll()
+    finally:
+        proc.kill()
+        proc.wait(timeout=30)
+    return reached, exited
+
 
 NO_EFFECTS = {"normal_damping": False, "tangential_friction": False, "rotation": False,
               "bottom_friction": False, "clip_attractive_normal": False}

@@ -5,7 +5,6 @@ import ctypes.util
 import os
 import subprocess
 import sys
-import time
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
@@ -13,7 +12,7 @@ import h5py
 import meshio
 import numpy as np
 import pytest
-from helpers import couette_scene
+from helpers import couette_scene, kill_when
 
 import pardem
 from averaging.mesh import SEGMENTS
@@ -148,16 +147,9 @@ def test_killed_run_leaves_every_finished_snapshot_readable(tmp_path):
     out = tmp_path / "run"
     proc = subprocess.Popen([sys.executable, "-m", "pardem.cli", "run", str(tmp_path / "s.toml"),
                              "--out", str(out), "--quiet"], stderr=subprocess.DEVNULL)
-    try:
-        deadline = time.time() + 300  # a cold numba cache compiles for a minute or more
-        while time.time() < deadline and proc.poll() is None:
-            if (out / "particles.xdmf").exists() and len(xdmf_grids(out / "particles.xdmf")) >= 12:
-                break
-            time.sleep(0.05)
-        assert proc.poll() is None, f"the run to be killed exited early ({proc.returncode})"
-    finally:
-        proc.kill()  # SIGKILL
-        proc.wait(timeout=30)
+    _, exited = kill_when(proc, lambda: (out / "particles.xdmf").exists()
+                          and len(xdmf_grids(out / "particles.xdmf")) >= 12, poll=0.05)
+    assert exited is None, f"the run to be killed exited early ({exited})"
     grids = xdmf_grids(out / "particles.xdmf")
     snaps = list(pardem.read_snapshots(out))
     assert len(snaps) >= len(grids) >= 12

@@ -3,12 +3,11 @@ named, and a run killed with SIGKILL continues from its last checkpoint bit for 
 
 import subprocess
 import sys
-import time
 
 import h5py
 import numpy as np
 import pytest
-from helpers import couette_scene
+from helpers import couette_scene, kill_when
 
 import pardem
 from pardem.scene import SceneError, write_scene
@@ -81,21 +80,14 @@ def test_kill_9_then_restart_reproduces_the_uninterrupted_run(tmp_path):
     assert ref.returncode == 0, ref.stderr
     out = tmp_path / "killed"
     proc = subprocess.Popen(cli + ["--out", str(out), "--end", "5.0"], stderr=subprocess.DEVNULL)
-    reached = False
-    try:
-        deadline = time.time() + 300  # a cold numba cache compiles for a minute or more
-        while time.time() < deadline and proc.poll() is None:
-            # after the checkpoint at 0.2 s, in the middle of a run
-            if (out / "checkpoint.h5").exists():
-                with h5py.File(out / "checkpoint.h5") as h5:
-                    reached = h5.attrs["time"] > 0.15
-                if reached:
-                    break
-            time.sleep(0.02)
-        exited = proc.poll()
-    finally:
-        proc.kill()  # SIGKILL
-        proc.wait(timeout=30)
+
+    def after_first_checkpoints():  # the one at 0.2 s: in the middle of a run
+        if not (out / "checkpoint.h5").exists():
+            return False
+        with h5py.File(out / "checkpoint.h5") as h5:
+            return h5.attrs["time"] > 0.15
+
+    reached, exited = kill_when(proc, after_first_checkpoints)
     assert reached and exited is None, (
         f"the run to be killed {'exited with ' + str(exited) if exited is not None else 'ran'} "
         "without reaching its 0.2 s checkpoint in time")
