@@ -1,5 +1,6 @@
 """One sample's input to the ring sums: this rank's owned free particles and their contacts,
-each contact seen from the particle (normal towards it, force on it, spring in its orientation).
+each contact seen from the particle (normal towards it, force on it, tangential displacement in
+its orientation).
 
 Stage: averaging. Disk-disk contacts count for each free partner; contacts with wall disks and
 with the flat ring surfaces count for the free particle only (SPEC §4). Per particle, contacts
@@ -22,8 +23,10 @@ from .boundary import torque_on
 class Sample(NamedTuple):
     """Particles x [n,2] (m), v [n,2] (m/s), omega [n] (rad/s), radius [n] (m), mass [n] (kg);
     contacts of particle p in rows start[p]:start[p+1] of normal [m,2], overlap [m] (m),
-    force [m,2] (N, on p), spring [m,2] (m); inner_torque (N m): the torque the inner ring
-    exerts on these particles (this rank's share)."""
+    force [m,2] (N, on p), tangential [m,2] (m: the contact's tangential history t, so that the
+    contact displacement is Delta = delta n - t; the paper's eta (eq. 1.3) by default, the
+    spring xi with [averaging] displacement = "spring"); inner_torque (N m): the torque the
+    inner ring exerts on these particles (this rank's share)."""
 
     x: np.ndarray
     v: np.ndarray
@@ -34,36 +37,52 @@ class Sample(NamedTuple):
     normal: np.ndarray
     overlap: np.ndarray
     force: np.ndarray
-    spring: np.ndarray
+    tangential: np.ndarray
     inner_torque: float
 
 
-def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, spring,
+def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, tangential,
                   inner_torque: float) -> Sample:
     """Build a Sample from per-contact rows already oriented towards ``owner`` (particle index)."""
     order = np.argsort(owner, kind="stable")
     start = np.zeros(radius.size + 1, np.int64)
     np.cumsum(np.bincount(owner, minlength=radius.size), out=start[1:])
     return Sample(x, v, omega, radius, mass, start, normal[order], overlap[order],
-                  force[order], spring[order], inner_torque)
+                  force[order], tangential[order], inner_torque)
 
 
-def oriented_rows(i, j, as_i, as_j, pairs: dict, ring_owner=None, ring: dict | None = None):
-    """Per-contact rows ``(owner, normal, overlap, force, spring)`` seen from each particle that
-    gets a share: a pair table's row counts for i where ``as_i`` and, negated, for j where
-    ``as_j``; ring-contact rows count for ``ring_owner``. Force = normal_force n + tangential."""
+DISPLACEMENTS = {"eta": "displacement", "spring": "spring"}
+"""[averaging] displacement -> the contact-table column that gives the tangential part of Delta."""
+
+
+def oriented_rows(i, j, as_i, as_j, pairs: dict, ring_owner=None, ring: dict | None = None,
+                  displacement: str = "eta"):
+    """Per-contact rows ``(owner, normal, overlap, force, tangential)`` seen from each particle
+    that gets a share: a pair table's row counts for i where ``as_i`` and, negated, for j where
+    ``as_j``; ring-contact rows count for ``ring_owner``. Force = normal_force n + tangential
+    force; tangential: the table's eta or spring column (``displacement``; a table with
+    neither, from a run without tangential friction, gives zeros)."""
     def force(t):
         return t["normal_force"][:, None] * t["normal"] + t["tangential_force"]
 
+    def tangential(t):
+        key = DISPLACEMENTS[displacement]
+        if key in t:
+            return t[key]
+        if np.any(t["spring"]):
+            raise ValueError(f"contacts have no {key!r} column (eta is tracked only in runs "
+                             "with tangential friction that write contacts or average with "
+                             'displacement = "eta"); average with displacement = "spring"')
+        return np.zeros_like(t["spring"])
+
     f = force(pairs)
-    parts = [(i[as_i], pairs["normal"][as_i], pairs["overlap"][as_i], f[as_i],
-              pairs["spring"][as_i]),
-             (j[as_j], -pairs["normal"][as_j], pairs["overlap"][as_j], -f[as_j],
-              -pairs["spring"][as_j])]
+    t = tangential(pairs)
+    parts = [(i[as_i], pairs["normal"][as_i], pairs["overlap"][as_i], f[as_i], t[as_i]),
+             (j[as_j], -pairs["normal"][as_j], pairs["overlap"][as_j], -f[as_j], -t[as_j])]
     if ring is not None:
-        parts.append((ring_owner, ring["normal"], ring["overlap"], force(ring), ring["spring"]))
-    owner, normal, overlap, force_, spring = (np.concatenate(c) for c in zip(*parts))
-    return owner.astype(np.int64), normal, overlap, force_, spring
+        parts.append((ring_owner, ring["normal"], ring["overlap"], force(ring), tangential(ring)))
+    owner, normal, overlap, force_, tang = (np.concatenate(c) for c in zip(*parts))
+    return owner.astype(np.int64), normal, overlap, force_, tang
 
 
 def sample_simulation(sim) -> Sample:
@@ -84,11 +103,13 @@ def sample_simulation(sim) -> Sample:
                                        e.normal_damping)
         ring_owner = ring["index"]
     # j < n_move: j is an owned free particle
-    owner, normal, overlap, force, spring = oriented_rows(i, j, i < n_move, j < n_move, t,
-                                                          ring_owner, ring)
+    cfg = sim.scene.averaging
+    owner, normal, overlap, force, tangential = oriented_rows(
+        i, j, i < n_move, j < n_move, t, ring_owner, ring,
+        cfg.displacement if cfg is not None else "eta")
     sl = slice(0, n_move)
     return from_contacts(ps.x[sl], ps.v[sl], ps.omega[sl], ps.radius[sl], ps.mass[sl],
-                         owner, normal, overlap, force, spring,
+                         owner, normal, overlap, force, tangential,
                          _inner_torque(ps, t, i, j, n_move, ring))
 
 

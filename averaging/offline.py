@@ -23,9 +23,10 @@ from .collect import Sample, from_contacts, oriented_rows
 from .rings import RingAverager
 
 
-def snapshot_sample(snap: dict) -> Sample:
+def snapshot_sample(snap: dict, displacement: str = "eta") -> Sample:
     """The free particles of a snapshot (rows sorted by id, so a free particle's row is its id)
-    and their contacts, oriented towards each free partner."""
+    and their contacts, oriented towards each free partner; ``displacement``: "eta" or "spring"
+    for the tangential part of Delta (collect.oriented_rows)."""
     if "contacts" not in snap:
         raise SceneError(f"snapshot at t = {snap['time']} s has no contacts: offline averaging "
                          "needs [output] contacts = true")
@@ -35,17 +36,22 @@ def snapshot_sample(snap: dict) -> Sample:
     lo, hi = c["ids"][:, 0], c["ids"][:, 1]
     ring = snap.get("ring_contacts")
     # lo is always free; free ids are 0..n-1, wall disks come after
-    owner, normal, overlap, force, spring = oriented_rows(
-        lo, hi, np.ones(lo.size, bool), hi < n, c, None if ring is None else ring["id"], ring)
+    try:
+        owner, normal, overlap, force, tangential = oriented_rows(
+            lo, hi, np.ones(lo.size, bool), hi < n, c, None if ring is None else ring["id"],
+            ring, displacement)
+    except ValueError as e:
+        raise SceneError(f"snapshot at t = {snap['time']} s: {e}") from None
     return from_contacts(snap["position"][:n], snap["velocity"][:n], snap["omega"][:n],
                          snap["radius"][:n], snap["mass"][:n], owner, normal, overlap, force,
-                         spring, inner_ring_torque(snap, c, ring))
+                         tangential, inner_ring_torque(snap, c, ring))
 
 
 def average_run(run_dir: str | Path, start: float | None = None, end: float | None = None,
-                ring_width: float | None = None, weighting: str | None = None) -> RingAverager:
+                ring_width: float | None = None, weighting: str | None = None,
+                displacement: str | None = None) -> RingAverager:
     """Average the snapshots of a run folder with t in [start, end] (defaults: the scene's
-    [averaging] table, or the whole run)."""
+    [averaging] table, or the whole run; displacement "eta" unless the table says)."""
     run_dir = Path(run_dir)
     scene = load_scene(run_dir / "scene.toml")
     g, cfg = scene.geometry, scene.averaging
@@ -55,6 +61,7 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
     end = end if end is not None else (cfg.end if cfg else float("inf"))
     ring_width = ring_width or (cfg.ring_width if cfg else 0.9275e-3)
     weighting = weighting or (cfg.weighting if cfg else "slice")
+    displacement = displacement or (cfg.displacement if cfg else "eta")
     dt = resolve_dt(scene)
     every = max(1, int(round(scene.output.snapshot_interval / dt)))
     if math.isfinite(end):
@@ -71,7 +78,7 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
                      else 2.0 * float(snap["radius"][free].mean()))
             avg = RingAverager(g.inner_radius, g.outer_radius, ring_width, weighting,
                                scene.contact.height, d_ref, scene.contact.k_n, g.omega_inner)
-        avg.add(snapshot_sample(snap), snap["time"])
+        avg.add(snapshot_sample(snap, displacement), snap["time"])
     if avg is None:
         raise SceneError(f"{run_dir}: no snapshot between t = {start} s and {end} s")
     return avg

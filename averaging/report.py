@@ -35,6 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from pardem.scene import load_scene
+from pardem.walls import wall_layout
 
 from .rings import ERROR_BLOCKS, block_error, read_rings
 
@@ -47,10 +48,10 @@ def global_volume_fraction(scene) -> float:
     """v-bar of SPEC §2: free disks plus half of every wall disk, over pi (R_o^2 - R_i^2)."""
     g = scene.geometry
     disks = sum(s.count * math.pi * s.diameter**2 / 4 for s in scene.species)
-    walls = 0
-    for radius in (g.inner_radius, g.outer_radius):
-        walls += max(int(round(2 * math.pi * radius / g.wall_particle_spacing)), 1)
-    wall_area = 0.5 * walls * math.pi * g.wall_particle_diameter**2 / 4
+    wall_area = 0.0
+    for ring in ("inner", "outer"):
+        w = wall_layout(g, ring)
+        wall_area += 0.5 * w.count * math.pi * w.diameter**2 / 4
     return (disks + wall_area) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
 
 

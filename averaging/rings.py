@@ -20,7 +20,8 @@ Fields (per ring, polar components; V = 2 pi h r dr the ring volume):
     part of T = F, sigma, eps
     D_rphi, W_rphi = (dv_phi/dr -+ v_phi/r)/2 (1/s); excess_spin = omega - W_rphi
     stiffness = 2 pi E/k'_n = (2 pi/k'_n) tr sigma / tr eps; shear_resistance = pi G/k'_n =
-    (pi/k'_n) dev sigma / dev eps; mu_c = M_zr / kappa_zr (N/m^2); k'_n = k_n/h
+    (pi/k'_n) dev sigma / dev eps; mu_c = |M_zr| / |kappa_zr| (N/m^2, the paper's ratio of
+    magnitudes), mu_c_signed = M_zr / kappa_zr; k'_n = k_n/h
     v_phi_norm = v_phi/(Omega R_i); fit_v0, fit_s: v_phi_norm = v0 exp(-r_tilde/s) fitted
     over r_tilde in [0.25, 8.1] (scalars, in rings.h5 only)
     shear_torque (N m) = 2 pi h r^2 sigma_phir, the torque passed outwards through the ring
@@ -54,7 +55,8 @@ FIELD_UNITS = {"r": "m", "r_tilde": "1", "nu": "1", "v_r": "m/s", "v_phi": "m/s"
 FIELD_UNITS.update({"tr_F": "1", "dev_F": "1", "angle_F": "deg", "tr_sigma": "N/m^2",
                     "dev_sigma": "N/m^2", "angle_sigma": "deg", "tr_eps": "1", "dev_eps": "1",
                     "angle_eps": "deg", "D_rphi": "1/s", "W_rphi": "1/s", "excess_spin": "rad/s",
-                    "stiffness": "1", "shear_resistance": "1", "mu_c": "N/m^2", "v_phi_norm": "1",
+                    "stiffness": "1", "shear_resistance": "1", "mu_c": "N/m^2",
+                    "mu_c_signed": "N/m^2", "v_phi_norm": "1",
                     "fit_v0": "1", "fit_s": "1", "shear_torque": "N m", "inner_torque": "N m"})
 for comp in ("rr", "rphi", "phir", "phiphi"):
     FIELD_UNITS[f"F_{comp}"] = "1"
@@ -199,7 +201,8 @@ def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarr
         out["excess_spin"] = out["omega"] - out["W_rphi"]
         out["stiffness"] = 2.0 * math.pi / k_n_2d * out["tr_sigma"] / out["tr_eps"]
         out["shear_resistance"] = math.pi / k_n_2d * out["dev_sigma"] / out["dev_eps"]
-        out["mu_c"] = out["M_zr"] / out["kappa_zr"]
+        out["mu_c"] = np.abs(out["M_zr"]) / np.abs(out["kappa_zr"])
+        out["mu_c_signed"] = out["M_zr"] / out["kappa_zr"]
         out["v_phi_norm"] = out["v_phi"] / wall_speed
         out["shear_torque"] = 2.0 * math.pi * h * r * r * out["sigma_phir"]
     if r_tilde is not None:

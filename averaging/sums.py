@@ -8,7 +8,8 @@ The sums are additive over particles, so every rank sums its owned particles and
 Columns of a sum array S [n_rings, N_COLUMNS] (V^p = pi a^2 h, h the disk height; l the branch
 vector from the particle centre to the contact point, l = -(a - delta/2) n; n the contact
 normal pointing from the partner to the particle; f the force on the particle; Delta = delta n
-- xi the elastic deformation; tensor component ab = first vector's a times second's b, a, b in
+- t the contact displacement, t its tangential history (the paper's eta by default, see
+collect.Sample); tensor component ab = first vector's a times second's b, a, b in
 {r, phi}; l x f = l_r f_phi - l_phi f_r):
 
     vol                Sum w V^p                       m^3
@@ -59,8 +60,8 @@ def accumulate(x, v, omega, radius, mass, start, cn, cdelta, cf, cxi, height, r0
 
     Particles: x [n,2], v [n,2], omega [n], radius [n], mass [n] (free particles only).
     Contacts of particle p: rows start[p]:start[p+1] of cn [m,2] (unit normal, from the partner
-    to p), cdelta [m] (overlap), cf [m,2] (force on p), cxi [m,2] (tangential spring, in p's
-    orientation)."""
+    to p), cdelta [m] (overlap), cf [m,2] (force on p), cxi [m,2] (tangential history t, eta
+    or the spring, in p's orientation: Delta = delta n - t)."""
     n_rings = out.shape[0]
     cap = int(2.0 * extent(radius.max(), kind) / dr) + 3 if radius.size else 3
     rings = np.empty(cap, np.int64)

@@ -35,6 +35,9 @@ def main(argv: list[str] | None = None) -> int:
     avg.add_argument("--end", type=float, help="s (default: the scene's [averaging] end)")
     avg.add_argument("--ring-width", type=float, help="m (default: the scene's, or d_small/8)")
     avg.add_argument("--weighting", choices=["slice", "exact", "centre", "gaussian"])
+    avg.add_argument("--displacement", choices=["eta", "spring"],
+                     help="tangential part of the contact displacement in eps and kappa: the "
+                          "paper's total tangential displacement eta (default) or the spring")
     avg.add_argument("--out", help="folder for rings.h5/rings.csv (default: RUN_DIR/offline)")
     plot = sub.add_parser("plot", help="the paper's figures (PNG) from ring averages")
     plot.add_argument("run_dirs", nargs="+", help="run folder(s) with rings.h5 (several: "
@@ -89,7 +92,8 @@ def _average(args) -> int:
     from .scene import SceneError
 
     try:
-        avg = average_run(args.run_dir, args.start, args.end, args.ring_width, args.weighting)
+        avg = average_run(args.run_dir, args.start, args.end, args.ring_width, args.weighting,
+                          args.displacement)
         out = Path(args.out) if args.out else Path(args.run_dir) / "offline"
         _check_writable(out)
         avg.write(out)

@@ -96,6 +96,35 @@ def contact_law(nx, ny, delta, vx, vy, xix, xiy, prm, damping, friction, clip, w
 
 
 @nb.njit(**INLINE)
+def tangential_displacement(ex, ey, nx, ny, vx, vy, dt):
+    """The paper's eta (eq. 1.3) after one step: the previous (ex, ey) projected into the
+    current tangent plane (normal (nx, ny)) plus v_ij^t dt, with v_ij = (vx, vy). The same
+    arithmetic as the spring's update in ``contact_law`` but never capped, so eta equals the
+    spring bit for bit until the contact first slides, and keeps growing while it slides.
+    Bookkeeping for averaging and output: no force depends on it. (Local names differ from
+    the callers' and contact_law's: see jit.py on inlining.)"""
+    td_vn = vx * nx + vy * ny
+    td_en = ex * nx + ey * ny
+    return ex - td_en * nx + (vx - td_vn * nx) * dt, ey - td_en * ny + (vy - td_vn * ny) * dt
+
+
+@nb.njit(**INLINE)
+def pair_displacement(dx, dy, ai, aj, dvx, dvy, wi, wj, ex, ey, dt):
+    """``tangential_displacement`` of a disk-disk pair from pair_force's inputs, with
+    pair_force's geometry; (0, 0) unless the disks overlap (a new contact starts from zero,
+    like the spring)."""
+    pd_dist = math.sqrt(dx * dx + dy * dy)
+    if ai + aj - pd_dist <= 0.0:
+        return 0.0, 0.0
+    pd_inv = 1.0 / pd_dist
+    pd_nx = dx * pd_inv
+    pd_ny = dy * pd_inv
+    pd_s = ai * wi + aj * wj
+    return tangential_displacement(ex, ey, pd_nx, pd_ny, dvx + pd_s * pd_ny, dvy - pd_s * pd_nx,
+                                   dt)
+
+
+@nb.njit(**INLINE)
 def pair_force(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, reach, prm, damping, friction, clip,
                window, defer=False):
     """Disk-disk contact. (dx, dy) = r_i - r_j, (dvx, dvy) = v_i - v_j, wi, wj spins; reach (m)

@@ -170,7 +170,7 @@ class Decomposition:
         return self.drift > 0.5 * self.margin
 
     def distribute(self, ps, pairs, clock, n_move: int, n_local: int, idle: int,
-                   friction: bool, ring_walls: bool, history: History | None, t: float, prm,
+                   hist: int, ring_walls: bool, history: History | None, t: float, prm,
                    wall_margin: float):
         """Migrate owned particles (ps[:n_move]) that left the sector, with their springs, and
         exchange ghosts, in one round (``migration.exchange_rows``; it sets the counts in
@@ -179,14 +179,16 @@ class Decomposition:
         rows are stored in it, the wall disks (the ``idle`` last ones placed at time t, s)
         arranged near-first, those within ``wall_margin`` (m) of the sector counted as near, and
         the lists built (pair list, and the ring-contact candidates if ``ring_walls``; springs
-        only if ``friction``; ``prm``: the step loop's Params). Returns ``(written, moved, own,
+        only with a tangential history, ``hist`` columns of it (state.history_width); ``prm``:
+        the step loop's Params). Returns ``(written, moved, own,
         walls, ghosts, lists, history)``: lists as from exchange_rows, the rest as from
         ``receive_rows``."""
+        friction = hist > 0
         lo, hi, xi = history if history is not None else NO_SPRINGS
         err, (written, moved, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
             (peer_at, need), lists = exchange_rows(
                 ps, pairs, clock, n_move, n_local, idle, self.sectors.edges, self.rank,
-                self.ghost_width, row_width(friction), row_columns(friction)["x"].start,
+                self.ghost_width, row_width(hist), row_columns(hist)["x"].start,
                 friction and history is None, lo, hi, xi, t, prm, wall_margin, self._handles,
                 self.shared_halo, friction, ring_walls)
         if err:

@@ -24,9 +24,12 @@ def pair_overlap(ps, i, j):
 
 @nb.njit(**JIT)
 def ring_overlap(ps, i, prm, r_out):
-    """Overlap (m) of disk i with the nearer flat ring surface (outer radius r_out)."""
+    """Overlap (m) of disk i with the nearer flat ring surface (outer radius r_out); a ring
+    without its flat surface (Params.flat_in, flat_out) cannot overlap."""
     r = math.hypot(ps.x[i, 0], ps.x[i, 1])
-    return max(ps.radius[i] - (r - prm.r_in), ps.radius[i] - (r_out - r))
+    inner = ps.radius[i] - (r - prm.r_in) if prm.flat_in != 0.0 else -math.inf
+    outer = ps.radius[i] - (r_out - r) if prm.flat_out != 0.0 else -math.inf
+    return max(inner, outer)
 
 
 @nb.njit(**JIT)
@@ -117,7 +120,9 @@ def contact_table(ps, pairs, prm, friction: bool, damping: bool, n_own: int,
     ``normal_force`` [M] (N, on i along n), ``tangential_force`` [M,2] (N, on i), ``spring``
     [M,2] (m, xi), ``mobilised`` [M] (|f_t|/(mu |f_n|)), ``sliding`` [M] (int32, 1 at the
     cap). Forces on j are the negatives. ``local_index`` adds ``index`` [M,2], the pair's
-    storage indices on this rank."""
+    storage indices on this rank. Where the run tracks it (history columns 2-3),
+    ``displacement`` [M,2] (m) is the paper's total tangential displacement eta (eq. 1.3), in
+    i's orientation like the spring."""
     k = touching_pairs(ps, pairs, n_own)
     i, j = pairs.i[k], pairs.j[k]
     d = ps.x[i] - ps.x[j]
@@ -129,13 +134,16 @@ def contact_table(ps, pairs, prm, friction: bool, damping: bool, n_own: int,
         s = ps.radius[i] * ps.omega[i] + ps.radius[j] * ps.omega[j]
         dv = ps.v[i] - ps.v[j] + s[:, None] * np.column_stack([n[:, 1], -n[:, 0]])
         fn = fn - prm.gamma_n * np.einsum("ij,ij->i", dv, n)
-    xi = pairs.xi[k] if friction else np.zeros((k.size, 2))
+    hist = pairs.xi[k] if friction else np.zeros((k.size, 2))
+    xi = hist[:, :2]
     with np.errstate(divide="ignore", invalid="ignore"):
         mobilised = np.hypot(xi[:, 0], xi[:, 1]) * prm.k_t / (prm.mu * np.abs(fn))
     mobilised = np.where(np.isfinite(mobilised), mobilised, 1.0) if friction else 0.0 * fn
     table = {"ids": np.column_stack([ps.gid[i], ps.gid[j]]), "normal": n, "overlap": overlap,
              "normal_force": fn, "tangential_force": -prm.k_t * xi, "spring": xi.copy(),
              "mobilised": mobilised, "sliding": (mobilised >= SLIDING).astype(np.int32)}
+    if hist.shape[1] == 4:
+        table["displacement"] = hist[:, 2:4].copy()
     if local_index:
         table["index"] = np.column_stack([i, j])
     return table
@@ -146,14 +154,14 @@ def ring_contact_table(ps, pairs, prm, r_out: float, r_out_rate: float, friction
     """Touching contacts of free particles with the flat ring surfaces: ``index`` [M] (storage
     index), ``id`` [M], ``ring`` [M] (1 inner, 2 outer), ``normal`` [M,2] (unit, from the
     surface to the particle), ``overlap`` [M] (m), ``normal_force`` [M] (N, along n),
-    ``tangential_force`` [M,2] (N), ``spring`` [M,2] (m). Same law as the step loop, with
-    synchronous velocities."""
+    ``tangential_force`` [M,2] (N), ``spring`` [M,2] (m), and ``displacement`` [M,2] (m, eta)
+    where tracked. Same law as the step loop, with synchronous velocities."""
     cand = pairs.wall[: pairs.wall_count[0]]
     x = ps.x[cand]
     r = np.hypot(x[:, 0], x[:, 1])
     a = ps.radius[cand]
-    inner = r - prm.r_in < a
-    outer = ~inner & (r_out - r < a)
+    inner = (r - prm.r_in < a) & (prm.flat_in != 0.0)
+    outer = ~inner & (r_out - r < a) & (prm.flat_out != 0.0)
     keep = inner | outer
     idx, x, r, a, inner = cand[keep], x[keep], r[keep], a[keep], inner[keep]
     er = x / r[:, None]
@@ -165,7 +173,11 @@ def ring_contact_table(ps, pairs, prm, r_out: float, r_out_rate: float, friction
         # radially at r_out_rate; the inner ring only turns)
         wall_v = np.where(inner[:, None], 0.0, r_out_rate * er)
         fn = fn - prm.gamma_n * np.einsum("ij,ij->i", ps.v[idx] - wall_v, n)
-    xi = ps.xi_wall[idx] if friction else np.zeros((idx.size, 2))
-    return {"index": idx, "id": ps.gid[idx], "ring": np.where(inner, 1, 2), "normal": n,
-            "overlap": overlap, "normal_force": fn, "tangential_force": -prm.k_t * xi,
-            "spring": xi.copy()}
+    hist = ps.xi_wall[idx] if friction else np.zeros((idx.size, 2))
+    xi = hist[:, :2]
+    table = {"index": idx, "id": ps.gid[idx], "ring": np.where(inner, 1, 2), "normal": n,
+             "overlap": overlap, "normal_force": fn, "tangential_force": -prm.k_t * xi,
+             "spring": xi.copy()}
+    if hist.shape[1] == 4:
+        table["displacement"] = hist[:, 2:4].copy()
+    return table

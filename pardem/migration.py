@@ -16,7 +16,8 @@ Every row carries its new owner; each rank stores its ghosts sorted by (owner, g
 owner sends its per-step refreshes to r in gid order of the particles near sector r, the same
 set and order, because sender and owner apply the same distance test to the same bits.
 
-Message to one rank: [rows, springs, rows x (owner, packed row), springs x (lo, hi, xi_x, xi_y)].
+Message to one rank: [rows, springs, rows x (owner, packed row), springs x (lo, hi, history)],
+the history with as many columns as the pair list's (spring, and eta if tracked).
 """
 
 from __future__ import annotations
@@ -113,9 +114,10 @@ def send_rows(ps, pairs, n_move, edges, rank, ghost_width, width, from_list, lo,
         if d_hi >= 0 and d_hi != d_lo:
             n_springs[d_hi] += 1
     send_off = np.zeros(size + 1, np.int64)
+    hw = xi.shape[1]  # history columns
     for r in range(size):
         used = n_rows[r] + n_springs[r] > 0
-        send_off[r + 1] = send_off[r] + (2 + n_rows[r] * (width + 1) + 4 * n_springs[r]
+        send_off[r + 1] = send_off[r] + (2 + n_rows[r] * (width + 1) + (2 + hw) * n_springs[r]
                                          if used else 0)
     sbuf = np.empty(send_off[size])
     for r in range(size):
@@ -136,9 +138,8 @@ def send_rows(ps, pairs, n_move, edges, rank, ghost_width, width, from_list, lo,
             if spring_lo[k] == r or spring_hi[k] == r:
                 sbuf[at] = lo[k]
                 sbuf[at + 1] = hi[k]
-                sbuf[at + 2] = xi[k, 0]
-                sbuf[at + 3] = xi[k, 1]
-                at += 4
+                sbuf[at + 2:at + 2 + hw] = xi[k]
+                at += 2 + hw
     rbuf, recv_off, err = alltoallv(sbuf, send_off, handles)
     return rbuf, recv_off, owner, lo, hi, xi, err
 
@@ -176,7 +177,8 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
     key = np.empty(ghosts.shape[0], np.int64)
     pack_particles(ps, stay_idx, ghosts[n_gh:])
     arrivals = np.empty((n_arr, width))
-    springs = np.empty((n_sp, 4))
+    hw = xi.shape[1]  # history columns
+    springs = np.empty((n_sp, 2 + hw))
     a, g, s = 0, 0, 0
     for q in range(size):
         if recv_off[q + 1] == recv_off[q]:
@@ -193,9 +195,9 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
                 g += 1
             at += width + 1
         for k in range(int(rbuf[b + 1])):
-            springs[s] = rbuf[at:at + 4]
+            springs[s] = rbuf[at:at + 2 + hw]
             s += 1
-            at += 4
+            at += 2 + hw
     for k in range(stay_idx.size):
         key[n_gh + k] = (owner[stay_idx[k]] << SHIFT) | ps.gid[stay_idx[k]]
     ghosts = ghosts[np.argsort(key)]
@@ -261,26 +263,26 @@ def _refresh_plan(x_own, ghost_key, e, rank, ghost_width):
 
 @nb.njit(**JIT)
 def merge_springs(lo, hi, xi, springs):
-    """Springs (lo, hi, xi) joined with more springs [m, 4] (rows lo, hi, xi_x, xi_y), sorted by
-    (lo, hi), duplicates dropped (a pair seen by two ranks has the same spring on both: same
-    inputs, same arithmetic)."""
+    """Springs (lo, hi, xi [m, w]) joined with more springs [m', 2 + w] (rows lo, hi, the w
+    history columns), sorted by (lo, hi), duplicates dropped (a pair seen by two ranks has the
+    same history on both: same inputs, same arithmetic)."""
     n = lo.size + springs.shape[0]
+    w = springs.shape[1] - 2
     key = np.empty(n, np.int64)
-    vals = np.empty((n, 2))
+    vals = np.empty((n, w))
     for k in range(lo.size):
         key[k] = (lo[k] << SHIFT) | hi[k]
         vals[k] = xi[k]
     for k in range(springs.shape[0]):
         key[lo.size + k] = (int(springs[k, 0]) << SHIFT) | int(springs[k, 1])
-        vals[lo.size + k, 0] = springs[k, 2]
-        vals[lo.size + k, 1] = springs[k, 3]
+        vals[lo.size + k] = springs[k, 2:]
     order = np.argsort(key, kind="mergesort")
     m = 0
     for k in range(n):
         m += k == 0 or key[order[k]] != key[order[k - 1]]
     out_lo = np.empty(m, np.int64)
     out_hi = np.empty(m, np.int64)
-    out_xi = np.empty((m, 2))
+    out_xi = np.empty((m, w))
     q = 0
     for k in range(n):
         if k == 0 or key[order[k]] != key[order[k - 1]]:

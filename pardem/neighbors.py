@@ -154,8 +154,9 @@ def gid_order(gid, n):
 
 @nb.njit(**JIT)
 def carry_history(old_lo, old_hi, old_xi, gid, pi, pj, new_xi):
-    """Copy tangential springs from an old list, keyed by (lo, hi) gids and sorted by them, to the
-    pairs (pi, pj) of a new list (local indices, gid-sorted); absent pairs start with xi = 0."""
+    """Copy tangential histories (every column: spring, eta) from an old list, keyed by (lo, hi)
+    gids and sorted by them, to the pairs (pi, pj) of a new list (local indices, gid-sorted);
+    absent pairs start with zeros."""
     p = 0
     n_old = old_lo.size
     for k in range(new_xi.shape[0]):
@@ -163,42 +164,44 @@ def carry_history(old_lo, old_hi, old_xi, gid, pi, pj, new_xi):
         hi = gid[pj[k]]
         while p < n_old and (old_lo[p] < lo or (old_lo[p] == lo and old_hi[p] < hi)):
             p += 1
-        if p < n_old and old_lo[p] == lo and old_hi[p] == hi:
-            new_xi[k, 0] = old_xi[p, 0]
-            new_xi[k, 1] = old_xi[p, 1]
-        else:
-            new_xi[k, 0] = 0.0
-            new_xi[k, 1] = 0.0
+        found = p < n_old and old_lo[p] == lo and old_hi[p] == hi
+        for c in range(new_xi.shape[1]):
+            new_xi[k, c] = old_xi[p, c] if found else 0.0
 
 
 @nb.njit(**JIT)
 def live_springs(gid, pi, pj, xi, count):
-    """The non-zero springs of a list as ``(gid_lo, gid_hi, xi [m,2])``, in list (key) order."""
-    m = 0
+    """The non-zero histories of a list as ``(gid_lo, gid_hi, xi [m,hist])``, in list (key)
+    order (a pair whose columns are all zero does not touch: nothing to keep)."""
+    w = xi.shape[1]
+    live = np.zeros(count, np.bool_)
     for k in range(count):
-        m += (xi[k, 0] != 0.0) | (xi[k, 1] != 0.0)
+        for c in range(w):
+            live[k] |= xi[k, c] != 0.0
+    m = int(live.sum())
     lo = np.empty(m, np.int64)
     hi = np.empty(m, np.int64)
-    out = np.empty((m, 2))
+    out = np.empty((m, w))
     q = 0
     for k in range(count):
-        if xi[k, 0] != 0.0 or xi[k, 1] != 0.0:
+        if live[k]:
             lo[q] = gid[pi[k]]
             hi[q] = gid[pj[k]]
-            out[q, 0] = xi[k, 0]
-            out[q, 1] = xi[k, 1]
+            out[q] = xi[k]
             q += 1
     return lo, hi, out
 
 
 @nb.njit(**JIT)
-def ring_candidates(x, radius, n_move, r_in, r_out, skin, out):
-    """Indices of free particles within skin of a flat ring surface; returns the count (which may
-    exceed out.size, in which case the caller grows ``out`` and calls again)."""
+def ring_candidates(x, radius, n_move, r_in, r_out, skin, flat_in, flat_out, out):
+    """Indices of free particles within skin of a flat ring surface that is a contact surface
+    (flat_in, flat_out: Params); returns the count (which may exceed out.size, in which case
+    the caller grows ``out`` and calls again)."""
     count = 0
     for i in range(n_move):
         r = math.sqrt(x[i, 0] * x[i, 0] + x[i, 1] * x[i, 1])
-        if r - r_in < radius[i] + skin or r_out - r < radius[i] + skin:
+        if ((flat_in != 0.0 and r - r_in < radius[i] + skin)
+                or (flat_out != 0.0 and r_out - r < radius[i] + skin)):
             if count < out.size:
                 out[count] = i
             count += 1
@@ -223,7 +226,8 @@ def build_lists(ps, pairs, clock, prm, t, from_list, lo, hi, xi, friction, walls
     count = build_pairs(ps.x, ps.radius, ps.gid, n_move, n, prm.skin, pairs.i, pairs.j)
     n_wall = 0
     if walls:
-        n_wall = ring_candidates(ps.x, ps.radius, n_move, prm.r_in, r_out, prm.skin, pairs.wall)
+        n_wall = ring_candidates(ps.x, ps.radius, n_move, prm.r_in, r_out, prm.skin,
+                                 prm.flat_in, prm.flat_out, pairs.wall)
     if count <= pairs.i.size and n_wall <= pairs.wall.size:
         if friction:
             carry_history(lo, hi, xi, ps.gid, pairs.i, pairs.j, pairs.xi[:count])

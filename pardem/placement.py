@@ -19,7 +19,7 @@ import numpy as np
 
 from .scene import Scene, SceneError
 from .state import FREE, INNER_WALL, OUTER_WALL
-from .walls import wall_disk_angles
+from .walls import wall_disk_angles, wall_layout
 
 
 class Initial(NamedTuple):
@@ -55,9 +55,12 @@ def _couette(scene: Scene) -> Initial:
     radius = np.array([scene.species[k].diameter / 2 for k in labels])
     mass = np.array([scene.species[k].mass for k in labels])
     rmax = radius.max()
-    wall_r = g.wall_particle_diameter / 2
-    r_lo = g.inner_radius + wall_r + rmax * 1.01
-    r_hi = g.outer_start_radius - wall_r - rmax * 1.01
+    inner, outer = wall_layout(g, "inner"), wall_layout(g, "outer")
+    # clear of the wall disks (or the flat ring) of each ring
+    r_in_clear = g.inner_radius + (inner.diameter / 2 if inner.count else 0.0)
+    r_out_clear = g.outer_start_radius - (outer.diameter / 2 if outer.count else 0.0)
+    r_lo = r_in_clear + rmax * 1.01
+    r_hi = r_out_clear - rmax * 1.01
     sites, spacing = _lattice_sites(r_lo, r_hi, n, 2.0 * rmax * 1.001)
     if sites is None:
         fit = 0 if spacing is None else spacing
@@ -69,14 +72,13 @@ def _couette(scene: Scene) -> Initial:
     # jitter within the site's cell, and never across the band the centre must stay in (clear
     # of both rings' wall disks): in a sparse scene the cell is much wider than the band
     r_site = np.hypot(chosen[:, 0], chosen[:, 1])
-    band = np.minimum(r_site - (g.inner_radius + wall_r + radius),
-                      (g.outer_start_radius - wall_r - radius) - r_site)
+    band = np.minimum(r_site - (r_in_clear + radius), (r_out_clear - radius) - r_site)
     room = np.maximum(np.minimum(0.5 * spacing - radius, band), 0.0) * 0.99
     ang = rng.uniform(0.0, 2.0 * math.pi, n)
     rad = room * np.sqrt(rng.uniform(0.0, 1.0, n))
     x = chosen + np.column_stack([rad * np.cos(ang), rad * np.sin(ang)])
-    phi_in = wall_disk_angles(g.inner_radius, g.wall_particle_spacing)
-    phi_out = wall_disk_angles(g.outer_radius, g.wall_particle_spacing)
+    phi_in = wall_disk_angles(inner.count)
+    phi_out = wall_disk_angles(outer.count)
     nw = phi_in.size + phi_out.size
     r0 = np.concatenate([np.full(phi_in.size, g.inner_radius),
                          np.full(phi_out.size, g.outer_start_radius)])
@@ -85,7 +87,8 @@ def _couette(scene: Scene) -> Initial:
     kind = np.concatenate([np.full(n, FREE), np.full(phi_in.size, INNER_WALL),
                            np.full(phi_out.size, OUTER_WALL)]).astype(np.int8)
     return Initial(np.vstack([x, xw]), np.zeros((n + nw, 2)), np.zeros(n + nw),
-                   np.concatenate([radius, np.full(nw, wall_r)]),
+                   np.concatenate([radius, np.full(phi_in.size, inner.diameter / 2),
+                                   np.full(phi_out.size, outer.diameter / 2)]),
                    np.concatenate([mass, np.full(nw, np.inf)]), kind,
                    np.concatenate([np.zeros(n), phi]), n)
 

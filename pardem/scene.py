@@ -42,7 +42,15 @@ class Geometry:
     """``[geometry]`` (couette only): inner_radius (m, 0.1035), outer_radius (m, final, 0.2525),
     outer_start_radius (m, at t = 0, 0.33), compression_time (s, 2.0), omega_inner (rad/s,
     counter-clockwise positive, 0.1), wall_particle_diameter (m, 2.5e-3),
-    wall_particle_spacing (m, centre to centre along a ring, 7.0e-3)."""
+    wall_particle_spacing (m, centre to centre along a ring, 7.0e-3).
+
+    The wall layout of each ring (prefix ``inner_`` or ``outer_``; walls.WallLayout):
+    ``*_wall_count`` (glued disks on that ring, >= 0, 0 = a smooth ring; "auto" = None:
+    round(2 pi R / wall_particle_spacing), at least 1), ``*_wall_diameter`` (m, "auto" = None:
+    wall_particle_diameter), ``*_flat_surface`` (true: the flat ring surface behind the
+    disks is a contact surface too; false: only the disks are). Disks may overlap (spacing
+    below their diameter). The outer ring's disks sit on its final radius's spacing and move
+    radially with it during the compression."""
 
     inner_radius: float = 0.1035
     outer_radius: float = 0.2525
@@ -51,6 +59,12 @@ class Geometry:
     omega_inner: float = 0.1
     wall_particle_diameter: float = 2.5e-3
     wall_particle_spacing: float = 7.0e-3
+    inner_wall_count: int | None = None
+    outer_wall_count: int | None = None
+    inner_wall_diameter: float | None = None
+    outer_wall_diameter: float | None = None
+    inner_flat_surface: bool = True
+    outer_flat_surface: bool = True
 
 
 @dataclass(frozen=True)
@@ -169,7 +183,11 @@ class AveragingCfg:
     paper's) | "exact" | "centre" | "gaussian", see averaging/weights.py; default "slice"),
     reference_diameter (m, the d~ of r~ = (r - R_i)/d~ and of the
     v_phi decay length; "auto" = None: the mean free-particle diameter; the paper's scenes
-    set 8.0e-3)."""
+    set 8.0e-3), displacement ("eta": the tangential part of the contact displacement Delta in
+    eps and kappa is the paper's total tangential displacement eta of eq. 1.3, which keeps
+    growing while a contact slides (default); "spring": the Cundall-Strack spring xi, capped
+    at the Coulomb limit, with which M = (k_t/pi h) kappa . F holds identically and mu_c only
+    restates the fabric)."""
 
     start: float = 180.0
     end: float = 239.0
@@ -177,6 +195,7 @@ class AveragingCfg:
     ring_width: float = 0.9275e-3
     weighting: str = "slice"
     reference_diameter: float | None = None
+    displacement: str = "eta"
 
 
 @dataclass(frozen=True)
@@ -215,7 +234,8 @@ class Scene:
         """Plain nested dict in the TOML layout, every default filled in."""
         d: dict[str, Any] = {"scene": dataclasses.asdict(self.info)}
         if self.geometry is not None:
-            d["geometry"] = dataclasses.asdict(self.geometry)
+            d["geometry"] = {k: "auto" if v is None else v
+                             for k, v in dataclasses.asdict(self.geometry).items()}
             d["species"] = [dataclasses.asdict(s) for s in self.species]
         if self.particles is not None:
             cols = [getattr(self.particles, k).tolist() for k in _PCOLS]
@@ -235,22 +255,30 @@ class Scene:
     def fingerprint(self) -> str:
         """sha256 hex of the physics: to_dict() without scene.name, time.end, [output] and
         [averaging], which may legitimately change on a restart, and without keys added since
-        the first release while they hold their default (time.integrator)."""
+        the first release while they hold their default (time.integrator, the per-ring wall
+        layout keys of [geometry])."""
         d = self.to_dict()
         d["scene"].pop("name")
         d["time"].pop("end")
         if d["time"]["integrator"] == "verlet":  # keys added later hash only when not default,
             d["time"].pop("integrator")          # so older checkpoints stay restartable
+        for key, default in _LATER_GEOMETRY.items():
+            if "geometry" in d and d["geometry"][key] == default:
+                d["geometry"].pop(key)
         d.pop("output")
         d.pop("averaging", None)
         text = json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
         return hashlib.sha256(text.encode()).hexdigest()
 
 
+_LATER_GEOMETRY = {f"{ring}_{key}": default for ring in ("inner", "outer") for key, default in
+                   (("wall_count", "auto"), ("wall_diameter", "auto"), ("flat_surface", True))}
+"""[geometry] keys added after the first release, with their defaults (see fingerprint)."""
+
 # ---------------------------------------------------------------- schema and value checks
 
 _REQ = object()  # marks a required key
-_F, _I, _B, _S, _A = "float", "int", "bool", "str", "auto"
+_F, _I, _B, _S, _A, _IA = "float", "int", "bool", "str", "auto", "int-auto"
 
 
 def _schema(cls: type, spec: dict[str, tuple[str, str, str]],
@@ -268,7 +296,10 @@ _TABLES: dict[str, dict[str, tuple[str, Any, str, str]]] = {
         "inner_radius": (_F, "m", ">0"), "outer_radius": (_F, "m", ""),
         "outer_start_radius": (_F, "m", ""), "compression_time": (_F, "s", ">=0"),
         "omega_inner": (_F, "rad/s", ""), "wall_particle_diameter": (_F, "m", ">0"),
-        "wall_particle_spacing": (_F, "m", "")}),
+        "wall_particle_spacing": (_F, "m", ">0"),
+        **{f"{ring}_{key}": spec for ring in ("inner", "outer") for key, spec in (
+            ("wall_count", (_IA, "", ">=0")), ("wall_diameter", (_A, "m", ">0")),
+            ("flat_surface", (_B, "", "")))}}),
     "species": _schema(Species, {"name": (_S, "", ""), "diameter": (_F, "m", ">0"),
                                  "mass": (_F, "kg", ">0"), "count": (_I, "", ">=0")}),
     "contact": _schema(Contact, {
@@ -286,7 +317,7 @@ _TABLES: dict[str, dict[str, tuple[str, Any, str, str]]] = {
     "averaging": _schema(AveragingCfg, {
         "start": (_F, "s", ">=0"), "end": (_F, "s", ""), "sample_interval": (_F, "s", ">0"),
         "ring_width": (_F, "m", ">0"), "weighting": (_S, "", "slice|exact|centre|gaussian"),
-        "reference_diameter": (_A, "m", ">0")}),
+        "reference_diameter": (_A, "m", ">0"), "displacement": (_S, "", "eta|spring")}),
 }
 _TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "contact", "effects",
              "time", "neighbors", "output", "averaging")
@@ -324,8 +355,12 @@ def _value(label: str, key: str, v: Any, kind: str, unit: str) -> Any:
         if isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)):
             return int(v)
         raise SceneError(f"{head} expected an integer{u}")
-    if kind == _A and isinstance(v, str) and v == "auto":
+    if kind in (_A, _IA) and isinstance(v, str) and v == "auto":
         return None
+    if kind == _IA:
+        if isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)):
+            return int(v)
+        raise SceneError(f'{head} expected an integer or "auto"{u}')
     if not _is_num(v):
         raise SceneError(f"{head} expected a number{u}" + (' or "auto"' if kind == _A else ""))
     if not math.isfinite(float(v)):
@@ -591,15 +626,21 @@ def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
     if g["outer_start_radius"] < ro:
         raise _fail("[geometry]", "outer_start_radius", g["outer_start_radius"],
                     f"outer start radius below the final radius outer_radius = {ro!r}", "m")
-    if g["wall_particle_spacing"] < g["wall_particle_diameter"]:
-        raise _fail("[geometry]", "wall_particle_spacing", g["wall_particle_spacing"],
-                    f"must be >= wall_particle_diameter = {g['wall_particle_diameter']!r}", "m")
     big = max(species, key=lambda s: s.diameter)
     if not ro - ri > big.diameter:
         raise SceneError(f"[geometry] outer_radius - inner_radius = {ro - ri:.6g} m: the annulus "
                          f"gap must be larger than the largest diameter {big.diameter!r} m "
                          f"([[species]] {big.name!r})")
-    return Geometry(**g)
+    geometry = Geometry(**g)
+    from .walls import check_layout  # walls builds on scene types; imported here, not at the top
+
+    small = min(s.diameter for s in species if s.count > 0)
+    for ring in ("inner", "outer"):
+        why = check_layout(geometry, ring, small)
+        if why is not None:
+            key, value, text = why
+            raise _fail("[geometry]", key, value, text)
+    return geometry
 
 
 def load_scene(path: str | Path) -> Scene:

@@ -31,15 +31,28 @@ from .output.checkpoint import ARRAYS, load_checkpoint, save_checkpoint
 from .output.snapshots import write_snapshot
 from .placement import initial_configuration
 from .scene import Scene, SceneError, write_scene
-from .state import (FREE, NO_SPRINGS, Params, new_clock, new_pairs, new_particles, packed,
-                    row_width, unpack_particles)
+from .state import (FREE, NO_SPRINGS, Params, history_width, new_clock, new_pairs,
+                    new_particles, packed, row_width, unpack_particles)
 from .stepper import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
-from .walls import arrange_walls, outer_radius, place_wall_disks
+from .walls import arrange_walls, outer_radius, place_wall_disks, wall_layout
 
 
 class SimulationError(RuntimeError):
     """The run became invalid (non-finite value, particle left the cell)."""
+
+
+def tracks_eta(scene: Scene) -> bool:
+    """Whether a run keeps the paper's total tangential displacement eta (eq. 1.3) per contact:
+    only with tangential friction (without it no tangential history is kept), and only where
+    something reads it: in-situ averaging with [averaging] displacement = "eta" (the default),
+    or contacts written with the snapshots (offline averaging may use either displacement).
+    Otherwise the step loop is compiled without it and costs nothing extra."""
+    if not scene.effects.tangential_friction:
+        return False
+    avg = scene.averaging
+    return scene.output.contacts or (avg is not None and scene.geometry is not None
+                                     and avg.displacement == "eta")
 
 
 class Simulation:
@@ -62,10 +75,12 @@ class Simulation:
         self.dt = resolve_dt(scene)
         e = scene.effects
         self.friction = e.tangential_friction
+        self.eta = tracks_eta(scene)
+        self.hist = history_width(self.friction, self.eta)
         self.options = StepOptions(
             LawOptions(e.normal_damping, e.tangential_friction, e.clip_attractive_normal),
             e.rotation, e.bottom_friction, scene.info.kind == "couette",
-            predict=scene.time.integrator == "verlet")
+            predict=scene.time.integrator == "verlet", eta=self.eta)
         self.stepper = make_stepper(self.options)
         self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "averaging": 0.0,
                        "snapshots": 0.0, "checkpoints": 0.0, "progress": 0.0}
@@ -81,7 +96,9 @@ class Simulation:
             r_in=g.inner_radius if g else 0.0, omega_in=g.omega_inner if g else 0.0,
             r_out=g.outer_radius if g else 0.0, r_out0=g.outer_start_radius if g else 0.0,
             t_comp=g.compression_time if g else 0.0, skin=skin,
-            escape_radius=math.inf)
+            escape_radius=math.inf,
+            flat_in=float(wall_layout(g, "inner").flat) if g else 1.0,
+            flat_out=float(wall_layout(g, "outer").flat) if g else 1.0)
         self.n_free = init.n_free
         self._free_radii = init.radius[:init.n_free].copy()
         self.decomp = Decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
@@ -89,7 +106,7 @@ class Simulation:
                                     margin=GHOST_MARGIN_SKINS * skin)
         # Every rank builds the whole initial state (cheap, deterministic), then keeps its share.
         n = init.radius.size
-        ps = new_particles(n, self.friction)
+        ps = new_particles(n, self.hist)
         ps.gid[:] = np.arange(n)
         ps.kind[:] = init.kind
         ps.x[:] = init.x
@@ -108,8 +125,8 @@ class Simulation:
         self.decomp.place_sectors(ps.x[:init.n_free])
         owner = self.decomp.sectors.owner(ps.x[:init.n_free])
         mine = np.flatnonzero(owner == self.decomp.rank)
-        rows = packed(ps, np.concatenate([mine, np.arange(init.n_free, n)]), self.friction)
-        self.ps = new_particles(rows.shape[0], self.friction)
+        rows = packed(ps, np.concatenate([mine, np.arange(init.n_free, n)]), self.hist)
+        self.ps = new_particles(rows.shape[0], self.hist)
         unpack_particles(rows, self.ps, 0)
         self.clock.n_move[0] = mine.size
         self.clock.n_local[0] = rows.shape[0]
@@ -117,7 +134,7 @@ class Simulation:
         # _order_walls: no owned particle gets this close to an idle wall disk between exchanges
         self._wall_margin = self.decomp.ghost_width + 2.0 * float(
             init.radius[init.n_free:].max(initial=0.0))
-        self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.friction)
+        self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.hist)
         self._rebuild(history=history, rebalance=False)
         if restart is None:
             self._compute_forces()
@@ -152,7 +169,7 @@ class Simulation:
                 from_list = False
                 self.pairs = new_pairs(max(count + count // 2, self.pairs.i.size),
                                        max(n_wall + n_wall // 2, self.pairs.wall.size),
-                                       self.friction)
+                                       self.hist)
             count, n_wall, lo, hi, xi = build_lists(
                 self.ps, self.pairs, self.clock, self.prm, self.time, from_list, lo, hi, xi,
                 self.friction, self.options.walls)
@@ -165,18 +182,18 @@ class Simulation:
         rows are written. Returns the spring history with the migrants'
         springs merged in, and (pair count, ring candidate count) of the lists, or (-1, -1)
         if they were not built."""
-        clock, ps, friction = self.clock, self.ps, self.friction
+        clock, ps, hist = self.clock, self.ps, self.hist
         n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
         idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
         if rebalance:
             self.decomp.rebalance(ps.x[:n_move])
         written, moved, own, walls, ghosts, lists, history = self.decomp.distribute(
-            ps, self.pairs, clock, n_move, n_local, idle, friction, self.options.walls, history,
+            ps, self.pairs, clock, n_move, n_local, idle, hist, self.options.walls, history,
             self.time, self.prm, self._wall_margin)
         if not written:  # ps too small: store the rows in larger arrays
             rows = np.concatenate([own, walls, ghosts] if moved else
-                                  [packed(ps, np.arange(n_local), friction), ghosts])
-            self.ps = ps = new_particles(int(1.25 * rows.shape[0]), friction)
+                                  [packed(ps, np.arange(n_local), hist), ghosts])
+            self.ps = ps = new_particles(int(1.25 * rows.shape[0]), hist)
             unpack_particles(rows, ps, 0)
             self._order_walls(idle)  # the wall block keeps its order: the idle ones are last
         return history, lists
@@ -196,7 +213,7 @@ class Simulation:
         n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
         n_near = arrange_walls(ps, n_move, n_local - idle, n_local, self.time, self.prm,
                                self.decomp.sectors.edges, self.decomp.rank, self._wall_margin,
-                               row_width(self.friction))
+                               row_width(self.hist))
         clock.n_moved[0] = n_move + n_near
 
     def _place_idle_walls(self) -> None:
@@ -472,7 +489,7 @@ class Simulation:
                 {"key": np.column_stack(springs[:2]), "xi": springs[2]}, key="key")
             key = None if gathered is None else np.ascontiguousarray(gathered["key"].T)
             springs = None if gathered is None else merge_springs(
-                key[0], key[1], gathered["xi"], np.zeros((0, 4)))
+                key[0], key[1], gathered["xi"], np.zeros((0, 2 + self.hist)))
         if arrays is None:
             return None
         _clear_wall_loads(arrays, "kind", "f", "tau")
@@ -507,10 +524,29 @@ class Simulation:
             raise SceneError(f"--restart {path}: {arrays['gid'].size} particles in the "
                              f"checkpoint, {n} in the scene")
         _check_restored(path, arrays, ps)
+        if self.friction:
+            for k in ("xi_wall", "pair_xi"):
+                arrays[k] = self._history_columns(path, arrays[k])
         for k in ARRAYS:
             getattr(ps, k)[: arrays[k].shape[0]] = arrays[k]
         self.clock.step[0] = int(attrs["step"])
         return (arrays["pair_lo"], arrays["pair_hi"], arrays["pair_xi"]) if self.friction else None
+
+    def _history_columns(self, path, xi: np.ndarray) -> np.ndarray:
+        """A checkpoint's history (spring, eta if it tracked it) with this run's columns: eta
+        dropped if this run does not track it; if it does and the checkpoint has none, eta
+        starts as the spring, which is exact for every contact that has not slid (logged)."""
+        xi = np.asarray(xi, float)
+        if xi.ndim != 2 or xi.shape[1] not in (2, 4):
+            raise SceneError(f"--restart {path}: corrupted checkpoint: tangential history of "
+                             f"shape {xi.shape} (rows x 2 or rows x 4 expected)")
+        if xi.shape[1] == self.hist:
+            return xi
+        if self.hist == 2:
+            return np.ascontiguousarray(xi[:, :2])
+        self.log(f"restart from {path}: the checkpoint has no eta (total tangential "
+                 "displacement); it starts from the spring, exact for contacts that have not slid")
+        return np.column_stack([xi, xi])
 
 
 def _check_restored(path, arrays: dict[str, np.ndarray], ps) -> None:

@@ -10,8 +10,11 @@ Layout invariants
   so "sum a particle's contacts in gid order" also fixes where wall contacts fall in the sum.
 - The pair list holds candidate pairs (Verlet list) in canonical order: sorted by
   (lower gid, higher gid), with ``i`` the lower-gid partner. Only touching pairs contribute.
-- ``xi`` (tangential spring, m) is stored per pair, aligned with the pair list; a scene without
-  tangential friction allocates it with zero rows (no history storage).
+- ``xi`` (tangential history, m) is stored per pair, aligned with the pair list, with
+  ``hist`` columns: 0 without tangential friction (zero rows: no history storage), 2 for the
+  Cundall-Strack spring, 4 when the paper's total tangential displacement eta (eq. 1.3) is
+  tracked too (columns 2-3; bookkeeping for averaging and output, never a force). See
+  ``history_width``.
 """
 
 from __future__ import annotations
@@ -43,8 +46,9 @@ class Particles(NamedTuple):
     v(t+dt) ~ v(t+dt/2) + dt/2 a(t); the velocity-dependent forces (damping, tangential
     spring) use them, which makes the contact velocity second-order accurate in dt.
     x_ref [n,2] (m): positions at the last neighbour-list build (skin bookkeeping).
-    xi_wall [n,2] (m): tangential spring of the contact with a flat ring surface (a disk cannot
-    touch both rings, so one slot suffices); zero rows without tangential friction.
+    xi_wall [n,hist] (m): tangential history (spring, then eta if tracked) of the contact with
+    a flat ring surface (a disk cannot touch both rings, so one slot suffices); zero rows
+    without tangential friction.
     """
 
     gid: np.ndarray
@@ -70,9 +74,9 @@ class Particles(NamedTuple):
 class Pairs(NamedTuple):
     """Verlet pair list with capacity; ``count[0]`` pairs are valid.
 
-    i, j [cap] int32: local indices, gid[i] < gid[j]. xi [cap,2] (m): tangential springs
-    (zero rows without friction). wall [capw] int32, wall_count[0]: free particles near a flat
-    ring surface (candidates for flat-wall contacts).
+    i, j [cap] int32: local indices, gid[i] < gid[j]. xi [cap,hist] (m): tangential springs,
+    then eta if tracked (zero rows without friction). wall [capw] int32, wall_count[0]: free
+    particles near a flat ring surface (candidates for flat-wall contacts).
     """
 
     i: np.ndarray
@@ -91,6 +95,8 @@ class Params(NamedTuple):
     outer radius at t = 0; t_comp (s) compression time; skin (m) Verlet skin;
     escape_radius (m): a particle farther than this from the axis is an error (free scenes:
     inf; Couette scenes check against the rings' current radii instead).
+    flat_in, flat_out: 1.0 where the inner / outer flat ring surface is a contact surface,
+    0.0 where only its wall disks are (walls.WallLayout.flat).
     """
 
     dt: float
@@ -106,6 +112,8 @@ class Params(NamedTuple):
     t_comp: float
     skin: float
     escape_radius: float
+    flat_in: float = 1.0
+    flat_out: float = 1.0
 
 
 class Clock(NamedTuple):
@@ -139,22 +147,27 @@ NO_SPRINGS = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
 """An empty contact history (gid_lo, gid_hi, xi)."""
 
 
-def new_particles(n: int, friction: bool) -> Particles:
-    """Zeroed particle arrays for n particles."""
+def history_width(friction: bool, eta: bool) -> int:
+    """Columns of the tangential history: 0 without friction, 2 (spring), 4 (spring, eta)."""
+    return 0 if not friction else (4 if eta else 2)
+
+
+def new_particles(n: int, hist: int) -> Particles:
+    """Zeroed particle arrays for n particles with ``hist`` history columns (history_width)."""
     z = np.zeros
     return Particles(
         gid=z(n, np.int64), kind=z(n, np.int8), x=z((n, 2)), v=z((n, 2)), theta=z(n),
         omega=z(n), f=z((n, 2)), tau=z(n), radius=z(n), mass=z(n), inv_mass=z(n),
         inv_inertia=z(n), phi0=z(n), e0=z((n, 2)), v_pred=z((n, 2)), w_pred=z(n),
-        x_ref=z((n, 2)), xi_wall=z((n if friction else 0, 2)),
+        x_ref=z((n, 2)), xi_wall=z((n if hist else 0, max(hist, 2))),
     )
 
 
-def new_pairs(capacity: int, wall_capacity: int, friction: bool) -> Pairs:
-    """Empty pair list with the given capacities."""
+def new_pairs(capacity: int, wall_capacity: int, hist: int) -> Pairs:
+    """Empty pair list with the given capacities and ``hist`` history columns."""
     return Pairs(
         i=np.zeros(capacity, np.int32), j=np.zeros(capacity, np.int32),
-        xi=np.zeros((capacity if friction else 0, 2)), count=np.zeros(1, np.int64),
+        xi=np.zeros((capacity if hist else 0, max(hist, 2))), count=np.zeros(1, np.int64),
         wall=np.zeros(wall_capacity, np.int32), wall_count=np.zeros(1, np.int64),
     )
 
@@ -169,9 +182,9 @@ def new_clock(n_move: int, n_local: int, r_out0: float) -> Clock:
     )
 
 
-def particle_fields(friction: bool) -> tuple[str, ...]:
-    """Names of the per-particle arrays (``xi_wall`` only with tangential friction)."""
-    return tuple(k for k in Particles._fields if friction or k != "xi_wall")
+def particle_fields(hist: int) -> tuple[str, ...]:
+    """Names of the per-particle arrays (``xi_wall`` only with a tangential history)."""
+    return tuple(k for k in Particles._fields if hist or k != "xi_wall")
 
 
 def join_rows(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
@@ -179,28 +192,28 @@ def join_rows(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
 
 
 @functools.lru_cache(maxsize=None)
-def row_columns(friction: bool) -> dict[str, slice]:
+def row_columns(hist: int) -> dict[str, slice]:
     """Columns of each per-particle array in a packed row (``pack_particles``), in field
     order; the widths come from the arrays' own row shapes."""
-    one = new_particles(1, friction)
+    one = new_particles(1, hist)
     cols, c = {}, 0
-    for k in particle_fields(friction):
+    for k in particle_fields(hist):
         w = getattr(one, k)[0].size
         cols[k] = slice(c, c + w)
         c += w
     return cols
 
 
-def row_width(friction: bool) -> int:
+def row_width(hist: int) -> int:
     """Columns of a packed row."""
-    return next(reversed(row_columns(friction).values())).stop
+    return next(reversed(row_columns(hist).values())).stop
 
 
-def packed(ps: Particles, idx: np.ndarray, friction: bool) -> np.ndarray:
+def packed(ps: Particles, idx: np.ndarray, hist: int) -> np.ndarray:
     """Rows ``idx`` of every per-particle array as one float64 matrix [len(idx), columns], in
     field order (``row_columns``): one compiled call instead of a numpy call per array, which
     at a neighbour build, with the interpreter's caches cold, cost several us each."""
-    out = np.empty((len(idx), row_width(friction)))
+    out = np.empty((len(idx), row_width(hist)))
     pack_particles(ps, np.asarray(idx, np.int64), out)
     return out
 

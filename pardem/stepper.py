@@ -30,8 +30,9 @@ is computed from the same inputs in the same orientation on both. The only globa
 (largest displacement and speed) are maxima, which are exact.
 
 The stages are module-level jitted functions taking the effect switches as arguments (the
-``fx`` tuple: damping, friction, clip, rotation, bottom_friction, walls, and the integrator's
-prediction, which also switches the damping window) and inlined into
+``fx`` tuple: damping, friction, clip, rotation, bottom_friction, walls, the integrator's
+prediction, which also switches the damping window, and eta: whether the paper's total
+tangential displacement is tracked beside the spring) and inlined into
 ``advance``, a closure over nothing but those booleans: they are compile-time constants there,
 so a disabled effect is compiled out, and numba's disk cache can serve the kernels to later
 processes (closures that capture other jitted functions get a new cache key in every process).
@@ -46,7 +47,8 @@ from typing import Callable, NamedTuple
 import numba as nb
 import numpy as np
 
-from .contact import LawOptions, contact_law, pair_force
+from .contact import (LawOptions, contact_law, pair_displacement, pair_force,
+                      tangential_displacement)
 from .jit import INLINE, JIT
 from .mpi_native import refresh_ghosts
 from .state import OUTER_WALL
@@ -64,6 +66,7 @@ class StepOptions(NamedTuple):
     bottom_friction: bool = True
     walls: bool = True
     predict: bool = True  # velocity-dependent forces use v + dt/2 a (else the half-step v)
+    eta: bool = False  # track the paper's total tangential displacement (history columns 2-3)
 
 
 class Stepper(NamedTuple):
@@ -74,11 +77,12 @@ class Stepper(NamedTuple):
     compute_forces: Callable
 
 
-BATCH = 64  # pairs per batch: the work rows (19 x 64 doubles, 10 kB) stay in L1
-# rows of the work array: inputs of pair_force, its outputs, and the lanes to redo
+BATCH = 64  # pairs per batch: the work rows (19 x 64 doubles, 10 kB; 23 with eta) stay in L1
+# rows of the work array: inputs of pair_force, its outputs, the lanes to redo, and eta in/out
 (W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_XIX, W_XIY,
- W_ACT, W_FX, W_FY, W_TI, W_TJ, W_XOX, W_XOY, W_REDO, W_LANE) = range(19)
-WORK_ROWS = 19
+ W_ACT, W_FX, W_FY, W_TI, W_TJ, W_XOX, W_XOY, W_REDO, W_LANE,
+ W_ETX, W_ETY, W_EOX, W_EOY) = range(23)
+WORK_ROWS = 23
 
 
 @nb.njit(**INLINE)
@@ -101,7 +105,8 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx, work):
                stores and reloads through memory.
     ``work``: a flat (WORK_ROWS * BATCH) float array. The flat views are made once here: made
     per batch, their reference counting cost more than the gather."""
-    friction, rotation, walls = fx[1], fx[3], fx[5]
+    friction, rotation, walls, eta = fx[1], fx[3], fx[5], fx[7]
+    hw = np.uint64(4 if eta else 2)  # history columns per pair: spring (and eta)
     gx, gv, gw, ga = ps.x.reshape(-1), ps.v_pred.reshape(-1), ps.w_pred, ps.radius
     sf, st, sxi = ps.f.reshape(-1), ps.tau, pairs.xi.reshape(-1)
     pi, pj = pairs.i, pairs.j
@@ -125,8 +130,11 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx, work):
             work[W_DVY * BATCH + ln] = gv[ii + ii + one] - gv[jj + jj + one]
             work[W_WI * BATCH + ln] = gw[ii] if rotation else 0.0
             work[W_WJ * BATCH + ln] = gw[jj] if rotation else 0.0
-            work[W_XIX * BATCH + ln] = sxi[kk + kk] if friction else 0.0
-            work[W_XIY * BATCH + ln] = sxi[kk + kk + one] if friction else 0.0
+            work[W_XIX * BATCH + ln] = sxi[kk * hw] if friction else 0.0
+            work[W_XIY * BATCH + ln] = sxi[kk * hw + one] if friction else 0.0
+            if eta:
+                work[W_ETX * BATCH + ln] = sxi[kk * hw + np.uint64(2)]
+                work[W_ETY * BATCH + ln] = sxi[kk * hw + np.uint64(3)]
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
             touching, flagged = lane_law(work, ln, reach, prm, fx, True)
             work[W_ACT * BATCH + ln] = 1.0 if touching else 0.0
@@ -148,8 +156,11 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx, work):
         for ln in range(m):
             kk = np.uint64(first + ln)
             if friction:  # a pair that does not touch comes back with xi = 0
-                sxi[kk + kk] = work[W_XOX * BATCH + ln]
-                sxi[kk + kk + one] = work[W_XOY * BATCH + ln]
+                sxi[kk * hw] = work[W_XOX * BATCH + ln]
+                sxi[kk * hw + one] = work[W_XOY * BATCH + ln]
+            if eta:
+                sxi[kk * hw + np.uint64(2)] = work[W_EOX * BATCH + ln]
+                sxi[kk * hw + np.uint64(3)] = work[W_EOY * BATCH + ln]
             ii = np.uint64(pi[kk])
             if ii != cur:
                 sf[cur + cur] = acc_x
@@ -179,7 +190,15 @@ def forces(ps, pairs, n_loc, prm, t, reach, fx, work):
 def lane_law(work, lane, reach, prm, fx, defer):
     """pair_force on one lane of the work rows (see forces): forces, torques and spring written
     back there; returns ``(active, flagged)`` (flagged: deferred, redo without ``defer``)."""
-    damping, friction, clip, _, _, _, window = fx
+    damping, friction, clip, _, _, _, window, eta = fx
+    if eta and defer:  # bookkeeping, independent of the deferred branches: once per pair
+        eox, eoy = pair_displacement(
+            work[W_DX * BATCH + lane], work[W_DY * BATCH + lane], work[W_AI * BATCH + lane],
+            work[W_AJ * BATCH + lane], work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane],
+            work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane], work[W_ETX * BATCH + lane],
+            work[W_ETY * BATCH + lane], prm.dt)
+        work[W_EOX * BATCH + lane] = eox
+        work[W_EOY * BATCH + lane] = eoy
     act, fxl, fyl, til, tjl, xoxl, xoyl, again = pair_force(
         work[W_DX * BATCH + lane], work[W_DY * BATCH + lane], work[W_AI * BATCH + lane],
         work[W_AJ * BATCH + lane], work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane],
@@ -197,7 +216,7 @@ def lane_law(work, lane, reach, prm, fx, defer):
 @nb.njit(**INLINE)
 def flat_ring_contacts(ps, pairs, prm, t, reach, fx):
     """Contacts of candidate free particles with the two ring surfaces (infinitely massive)."""
-    damping, friction, clip, rotation, _, _, window = fx
+    damping, friction, clip, rotation, _, _, window, eta = fx
     r_o, r_o_dot = outer_radius(t, prm)
     lim = reach if damping and window else 0.0
     for q in range(pairs.wall_count[0]):
@@ -205,26 +224,33 @@ def flat_ring_contacts(ps, pairs, prm, t, reach, fx):
         rx, ry = ps.x[i, 0], ps.x[i, 1]
         r = math.sqrt(rx * rx + ry * ry)
         a = ps.radius[i]
-        if r - prm.r_in < a + lim:  # inner ring: n = +e_r, surface speed omega_in r_in
+        if prm.flat_in != 0.0 and r - prm.r_in < a + lim:  # inner: n = +e_r, speed omega_in r_in
             nx, ny, delta = rx / r, ry / r, a - (r - prm.r_in)
             vjx, vjy, s_j = 0.0, 0.0, prm.omega_in * prm.r_in
-        elif r_o - r < a + lim:  # outer ring: n = -e_r, surface moves radially at r_o_dot
+        elif prm.flat_out != 0.0 and r_o - r < a + lim:  # outer: n = -e_r, moves at r_o_dot
             nx, ny, delta = -rx / r, -ry / r, a - (r_o - r)
             vjx, vjy, s_j = -r_o_dot * nx, -r_o_dot * ny, 0.0
         else:
             if friction:
-                ps.xi_wall[i, 0] = 0.0
-                ps.xi_wall[i, 1] = 0.0
+                ps.xi_wall[i, :] = 0.0
             continue
         s = (a * ps.w_pred[i] if rotation else 0.0) + s_j
         xix = ps.xi_wall[i, 0] if friction else 0.0
         xiy = ps.xi_wall[i, 1] if friction else 0.0
+        wvx = ps.v_pred[i, 0] - vjx + s * ny
+        wvy = ps.v_pred[i, 1] - vjy - s * nx
         fn, ftx, fty, xix, xiy, _ = contact_law(
-            nx, ny, delta, ps.v_pred[i, 0] - vjx + s * ny, ps.v_pred[i, 1] - vjy - s * nx,
-            xix, xiy, prm, damping, friction, clip, window)
+            nx, ny, delta, wvx, wvy, xix, xiy, prm, damping, friction, clip, window)
         if friction:
             ps.xi_wall[i, 0] = xix
             ps.xi_wall[i, 1] = xiy
+        if eta:
+            wex, wey = 0.0, 0.0
+            if delta > 0.0:
+                wex, wey = tangential_displacement(ps.xi_wall[i, 2], ps.xi_wall[i, 3], nx, ny,
+                                                   wvx, wvy, prm.dt)
+            ps.xi_wall[i, 2] = wex
+            ps.xi_wall[i, 3] = wey
         ps.f[i, 0] += fn * nx + ftx
         ps.f[i, 1] += fn * ny + fty
         if rotation:
@@ -344,8 +370,10 @@ def drift(ps, clock, prm, fx, scratch):
 @functools.lru_cache(maxsize=None)
 def make_stepper(opts: StepOptions) -> Stepper:
     """Compile (or load from numba's cache) the step loop for one set of effects."""
+    if opts.eta and not opts.law.friction:
+        raise ValueError("StepOptions: eta is tracked only with tangential friction")
     fx = (opts.law.damping, opts.law.friction, opts.law.clip, opts.rotation,
-          opts.bottom_friction, opts.walls, opts.predict)
+          opts.bottom_friction, opts.walls, opts.predict, opts.eta)
 
     @nb.njit(**JIT)
     def advance(ps, pairs, clock, prm, halo, target):

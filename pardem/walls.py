@@ -3,13 +3,15 @@
 Stage: boundaries. The inner ring (radius r_in) turns counter-clockwise at omega_in from t = 0.
 The outer ring shrinks from r_out0 to r_out during [0, t_comp] with a cosine ramp (zero speed at
 both ends, so the packing is not jolted when the wall stops), then stays fixed.
-Wall disks (d = 2.5 mm by default) sit with their centres on the ring lines, evenly spaced;
-they are infinitely massive bodies that move with their ring.
+Wall disks (d = 2.5 mm by default) sit with their centres on the ring lines, evenly spaced, in a
+per-ring layout (``WallLayout``: count, diameter, whether the flat ring surface behind them is a
+contact surface); they are infinitely massive bodies that move with their ring.
 """
 
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba as nb
 import numpy as np
@@ -82,7 +84,59 @@ def arrange_walls(ps, first, first_idle, end, t, prm, edges, rank, margin, width
     return n_near
 
 
-def wall_disk_angles(radius: float, spacing: float) -> np.ndarray:
-    """Evenly spaced angles (rad) for disks along a ring, about ``spacing`` (m) apart."""
-    n = max(int(round(2.0 * math.pi * radius / spacing)), 1)
-    return 2.0 * math.pi * np.arange(n) / n
+class WallLayout(NamedTuple):
+    """The roughness of one ring: ``count`` glued disks (0: a smooth ring) of ``diameter`` (m)
+    with their centres evenly spaced on the ring line at ``radius`` (m; the outer ring's final
+    radius), and whether the flat ring surface behind them is a contact surface (``flat``)."""
+
+    count: int
+    diameter: float
+    flat: bool
+    radius: float
+
+
+MAX_DISKS_PER_DIAMETER = 100  # more wall disks than this along one disk diameter: refused
+
+
+def wall_layout(g, ring: str) -> WallLayout:
+    """The layout of ring "inner" or "outer" of a scene's Geometry, with its defaults resolved:
+    the count from wall_particle_spacing, the diameter from wall_particle_diameter."""
+    radius = g.inner_radius if ring == "inner" else g.outer_radius
+    count = getattr(g, f"{ring}_wall_count")
+    if count is None:
+        count = max(int(round(2.0 * math.pi * radius / g.wall_particle_spacing)), 1)
+    diameter = getattr(g, f"{ring}_wall_diameter") or g.wall_particle_diameter
+    return WallLayout(count, diameter, getattr(g, f"{ring}_flat_surface"), radius)
+
+
+def check_layout(g, ring: str, smallest_free: float):
+    """Why ring's layout cannot hold the free disks (smallest diameter ``smallest_free``, m),
+    as ``(key, value, reason)``, or None if it can. Without the flat surface the disks alone
+    must keep every free disk in the cell: the gap between neighbours, at the largest radius
+    they reach (the outer ring starts extended), must be narrower than the smallest free disk."""
+    w = wall_layout(g, ring)
+    if w.count > MAX_DISKS_PER_DIAMETER * 2.0 * math.pi * w.radius / w.diameter:
+        return (f"{ring}_wall_count", w.count, f"more than {MAX_DISKS_PER_DIAMETER} disks per "
+                f"wall-disk diameter along the ring (circumference {2 * math.pi * w.radius:.6g} m"
+                f", diameter {w.diameter!r} m)")
+    if not w.diameter < g.outer_radius - g.inner_radius:
+        return (f"{ring}_wall_diameter", w.diameter,
+                f"must be < outer_radius - inner_radius = {g.outer_radius - g.inner_radius:.6g} m")
+    if w.flat:
+        return None
+    if w.count == 0:
+        return (f"{ring}_flat_surface", False, f"a ring with {ring}_wall_count = 0 (smooth) needs "
+                "its flat surface, or the free disks would leave the cell through it")
+    widest = g.outer_start_radius if ring == "outer" else g.inner_radius
+    gap = 2.0 * widest * math.sin(math.pi / w.count) - w.diameter if w.count > 1 else math.inf
+    if gap >= smallest_free:
+        return (f"{ring}_flat_surface", False, f"without the flat surface the {w.count} wall "
+                f"disks leave gaps of {gap:.6g} m (at radius {widest!r} m), wide enough for the "
+                f"smallest free disk ({smallest_free!r} m) to pass; use more wall disks or keep "
+                "the flat surface")
+    return None
+
+
+def wall_disk_angles(count: int) -> np.ndarray:
+    """Angles (rad) of ``count`` disks evenly spaced along a ring, the first at angle 0."""
+    return 2.0 * math.pi * np.arange(count) / count if count else np.zeros(0)

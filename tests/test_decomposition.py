@@ -59,27 +59,28 @@ def test_distance_is_to_the_nearest_boundary_ray(name):
         np.testing.assert_allclose(sec.distance(x, rank), expected, rtol=1e-12, atol=1e-17)
 
 
-@pytest.mark.parametrize("friction", [True, False])
-def test_packed_rows_come_back_unchanged(friction):
-    ps = new_particles(50, friction)
+@pytest.mark.parametrize("hist", [0, 2, 4])
+def test_packed_rows_come_back_unchanged(hist):
+    ps = new_particles(50, hist)
     rng = np.random.default_rng(5)
-    for k in particle_fields(friction):
+    for k in particle_fields(hist):
         v = getattr(ps, k)
         if v.dtype == np.float64:
             v[...] = rng.normal(size=v.shape) * 10.0 ** rng.integers(-300, 300, v.shape)
     ps.gid[:] = rng.integers(0, 2**53, 50)  # ids are exact in float64 up to 2**53
     ps.kind[:] = rng.integers(FREE, 3, 50)
-    cols = row_columns(friction)
+    cols = row_columns(hist)
     for idx in (np.array([7, 3, 3, 49, 0]), np.zeros(0, np.int64)):
-        rows = packed(ps, idx, friction)
-        assert rows.shape == (idx.size, row_width(friction))
+        rows = packed(ps, idx, hist)
+        assert rows.shape == (idx.size, row_width(hist))
         for k, c in cols.items():  # each array in its documented columns
             v = getattr(ps, k)
             np.testing.assert_array_equal(rows[:, c].reshape((idx.size,) + v.shape[1:]), v[idx])
-        back = new_particles(idx.size + 4, friction)
+        back = new_particles(idx.size + 4, hist)
         unpack_particles(rows, back, 2)
-        for k in particle_fields(friction):
+        for k in particle_fields(hist):
             assert getattr(back, k).dtype == getattr(ps, k).dtype
             np.testing.assert_array_equal(getattr(back, k)[2:2 + idx.size], getattr(ps, k)[idx])
             assert not getattr(back, k)[:2].any() and not getattr(back, k)[2 + idx.size:].any()
-    assert not friction or cols["xi_wall"].stop == row_width(True)
+    assert not hist or cols["xi_wall"].stop == row_width(hist)
+    assert not hist or cols["xi_wall"].stop - cols["xi_wall"].start == hist

@@ -93,8 +93,15 @@ BAD_COUETTE = [
      r"[geometry] outer_start_radius = 0.2: outer start radius below"),
     ("geometry.compression_time", -1.0, r"[geometry] compression_time"),
     ("geometry.wall_particle_diameter", 0.0, r"[geometry] wall_particle_diameter"),
-    ("geometry.wall_particle_spacing", 1e-3,
-     r"[geometry] wall_particle_spacing = 0.001: must be >="),
+    ("geometry.wall_particle_spacing", 0.0,
+     r"[geometry] wall_particle_spacing = 0.0: must be > 0 (m)"),
+    ("geometry.inner_wall_count", -1, r"[geometry] inner_wall_count = -1: must be >= 0"),
+    ("geometry.outer_wall_count", 2.5,
+     r'[geometry] outer_wall_count = 2.5: expected an integer or "auto"'),
+    ("geometry.outer_wall_count", "many",
+     '[geometry] outer_wall_count = \'many\': expected an integer or "auto"'),
+    ("geometry.inner_wall_diameter", 0.0, r"[geometry] inner_wall_diameter = 0.0: must be > 0"),
+    ("geometry.inner_flat_surface", "no", r"[geometry] inner_flat_surface = 'no': expected a"),
     ("geometry", 3, r"[geometry]: expected a table"),
     ("species.0.diameter", -7e-3, r"[[species]] #0 diameter = -0.007: must be > 0 (m)"),
     ("species.1.mass", 0.0, r"[[species]] #1 mass"),
@@ -124,6 +131,8 @@ BAD_COUETTE = [
     ("averaging.weighting", "area", r"[averaging] weighting = 'area': must be one of 'slice'"),
     ("averaging.reference_diameter", -8e-3, r"[averaging] reference_diameter = -0.008"),
     ("averaging.reference_diameter", "big", r"[averaging] reference_diameter = 'big'"),
+    ("averaging.displacement", "xi",
+     r"[averaging] displacement = 'xi': must be one of 'eta', 'spring'"),
     ("particles", [{"x": 0.0, "y": 0.0, "diameter": D_S, "mass": M_S}],
      r"[[particles]]: not allowed in a couette scene"),
     ("particles_file", "init.csv", r"particles_file: not allowed in a couette scene"),
@@ -147,6 +156,16 @@ def test_bad_couette_value(path, value, message):
     ({"averaging": {"start": 10.0, "end": 5.0}}, "[averaging] end = 5.0: must be > start = 10.0"),
     ({"geometry.outer_radius": 0.108}, "[geometry] outer_radius - inner_radius"),
     ({"species.0.count": 0, "species.1.count": 0}, "total count must be >= 1"),
+    ({"geometry.inner_wall_count": 0, "geometry.inner_flat_surface": False},
+     "[geometry] inner_flat_surface = false: a ring with inner_wall_count = 0 (smooth) needs "
+     "its flat surface"),
+    ({"geometry.outer_wall_count": 60, "geometry.outer_flat_surface": False},
+     "[geometry] outer_flat_surface = false: without the flat surface the 60 wall disks leave "
+     "gaps of"),
+    ({"geometry.inner_wall_diameter": 0.2},
+     "[geometry] inner_wall_diameter = 0.2: must be < outer_radius - inner_radius = 0.149"),
+    ({"geometry.inner_wall_count": 10**7},
+     "[geometry] inner_wall_count = 10000000: more than 100 disks per wall-disk diameter"),
 ])
 def test_bad_couette_combination(changes, message):
     d = couette_dict()

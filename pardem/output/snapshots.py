@@ -16,10 +16,13 @@ are stored with a third component z = 0, as ParaView wants; ``read_snapshots`` d
                   normal [M,3] (unit, from j to i), overlap [M] m,
                   normal_force [M] N (on i, along normal), tangential_force [M,3] N (on i),
                   spring [M,3] m (tangential spring xi), mobilised [M] (|f_t| / (mu |f_n|),
-                  friction used), sliding [M] int32 (mobilised >= 0.999: at the Coulomb cap)
+                  friction used), sliding [M] int32 (mobilised >= 0.999: at the Coulomb cap),
+                  displacement [M,3] m (the paper's total tangential displacement eta,
+                  eq. 1.3; with friction and contacts output)
         ring_contacts/ (free particles touching a flat ring surface) id [K], ring [K] (1 inner,
                   2 outer), normal [K,3] (unit, from the surface to the particle), overlap [K] m,
-                  normal_force [K] N, tangential_force [K,3] N, spring [K,3] m
+                  normal_force [K] N, tangential_force [K,3] N, spring [K,3] m,
+                  displacement [K,3] m
 
 Crash safety: a snapshot group is written under a temporary name and renamed when complete, the
 file is opened, appended and closed for every snapshot, and the XDMF indexes are rewritten
@@ -40,7 +43,8 @@ import numpy as np
 from . import xdmf
 
 FILE = "particles.h5"
-VECTORS = ("position", "velocity", "force", "normal", "tangential_force", "spring")
+VECTORS = ("position", "velocity", "force", "normal", "tangential_force", "spring",
+           "displacement")
 SMALL_INTS = ("kind", "rank", "coordination", "ring", "sliding")  # int32: every reader knows it
 
 

@@ -1,0 +1,479 @@
+"""Wall roughness study: which layout of the paper's glued wall disks, by a rule fixed before the
+runs, and what the layout changes (v0, wall slip, jamming); then the paper's claims without
+figures. Results: docs/roughness.md and docs/roughness/*.png, one small JSON per run in
+docs/roughness/runs/.
+
+    python run_scripts/roughness_study.py [--runs runs/roughness] [--jobs 2] [--ranks 1]
+                                          [--stage layouts|picked|claims|all] [--report-only]
+
+Stages: ``layouts`` runs simulation B with every admitted layout and the control, 3 seeds
+each; ``picked`` runs A, B and C with the layout the rule (RULE below, applied by ``pick``)
+selects from the finished layout runs; ``claims`` runs the paper's claims without figures
+(4 k_n; neither bottom nor tangential friction; Omega = 0). Every run is
+``pardem run SCENE --out RUNS/NAME`` with the full protocol (239 s, averages 180-239 s). The
+script is resumable: a run whose JSON exists is skipped, so an interrupted study continues
+where it stopped; raw run folders (~0.3 GB each) stay in RUNS, outside git. ``--jobs``
+concurrent runs of ``--ranks`` ranks each (on 2 cores: 2 jobs of 1 rank).
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+import math
+import os
+import subprocess
+import sys
+import time
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+
+import numpy as np
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(ROOT))
+
+from averaging.report import PAPER, global_volume_fraction, load_run, metrics  # noqa: E402
+from pardem.output.snapshots import read_snapshots  # noqa: E402
+from pardem.scene import load_scene, write_scene  # noqa: E402
+from pardem.state import INNER_WALL  # noqa: E402
+from pardem.walls import wall_layout  # noqa: E402
+
+DOCS = ROOT / "docs"
+TABLES = DOCS / "roughness" / "runs"
+SEEDS = (1, 2, 3)
+WALL_FRACTION = (0.0047, 0.00005)  # the paper's v-bar_wall and the admitted tolerance
+
+# name -> ([geometry] keys, description). d_w = 2.5 mm everywhere (the paper's Table 1.1).
+LAYOUTS = {
+    "both-7mm": ({"inner_wall_count": 93, "outer_wall_count": 227},
+                 "93 inner + 227 outer, 7.0 mm apart on both rings, flat surfaces behind "
+                 "(pardem's first reconstruction)"),
+    "split": ({"inner_wall_count": 160, "outer_wall_count": 159},
+              "160 inner (4.06 mm apart) + 159 outer (9.98 mm apart), flat surfaces behind"),
+    "inner-only": ({"inner_wall_count": 319, "outer_wall_count": 0},
+                   "319 overlapping disks on the inner ring (2.04 mm apart), smooth outer ring"),
+    "outer-only": ({"inner_wall_count": 0, "outer_wall_count": 319},
+                   "smooth inner ring, 319 disks on the outer ring (4.97 mm apart)"),
+    "both-7mm-bare": ({"inner_wall_count": 93, "outer_wall_count": 227,
+                       "inner_flat_surface": False, "outer_flat_surface": False},
+                      "control: as both-7mm without the flat surfaces behind the disks"),
+}
+CONTROLS = ("both-7mm-bare",)
+PRIOR_ORDER = ("both-7mm", "split", "inner-only", "outer-only")
+
+RULE = """\
+Written before any layout run, and applied by `pick()` in `run_scripts/roughness_study.py`.
+
+1. **Admitted layouts.** Wall disks of d_w = 2.5 mm (Table 1.1) whose half areas give
+   v̄_wall = 0.0047 ± 0.00005 (the paper's only statement about them): `both-7mm`, `split`,
+   `inner-only`, `outer-only`. `both-7mm-bare` is a control (is it the flat surface behind the
+   disks that locks the first layer?) and is never picked.
+2. **Qualitative tests from the paper's text and figures, not its fitted numbers.** Each on
+   the mean of 3 seeds of simulation B, with the seed scatter:
+   - (a) *a shear band localised at the inner ring*: v_φ/(ΩR_i) decays exponentially over
+     r̃ = 0.25–8.1, i.e. the median |ln(v/fit)| over that range is below ln 1.5;
+   - (b) *a dilated zone near the inner wheel* (§1.4.1): ν(10 ≤ r̃ ≤ 15) − ν(1 ≤ r̃ ≤ 4) > 0
+     by more than twice its seed standard error;
+   - (c) *the first layer moves slower than the wall*: every fit of Fig. 1.3 starts below 1,
+     so the log-fit v₀ must be below 1 by more than twice its seed standard error. This is the
+     sign of a feature of the figure (wall slip), not a target value.
+   A layout that fails any test is discarded.
+3. **Choice among the survivors.** The first survivor in the order `both-7mm` (the same
+   spacing on both rings, the fewest assumptions), `split` (both rings rough, equal counts),
+   `inner-only`, `outer-only` (one ring smooth) is picked.
+4. **No survivor:** keep `both-7mm` and say which test every layout failed.
+5. **Reported either way:** if the survivors' v₀ (or all admitted layouts' v₀) bracket the
+   paper's 0.756 for B, the paper's description does not determine v₀, and this document
+   says so; the pick is not changed towards the paper's number.
+"""
+
+
+# ---------------------------------------------------------------- scenes and runs
+
+def scene_for(sim: str, layout: str, seed: int, **changes):
+    """Simulation sim (A, B, C) with a layout and seed; ``changes``: {table: {key: value}}."""
+    base = load_scene(ROOT / "run_scripts" / f"couette_{sim}.toml")
+    g = dataclasses.replace(base.geometry, **LAYOUTS[layout][0])
+    scene = dataclasses.replace(base, geometry=g,
+                                info=dataclasses.replace(base.info, seed=seed, name=(
+                                    f"roughness-{layout}-{sim}-s{seed}")))
+    for table, keys in changes.items():
+        scene = dataclasses.replace(scene, **{table: dataclasses.replace(
+            getattr(scene, table), **keys)})
+    return scene
+
+
+def wall_fraction(scene) -> float:
+    """v-bar_wall: half of every wall disk's area over the cell's."""
+    g = scene.geometry
+    area = sum(0.5 * w.count * math.pi * w.diameter**2 / 4
+               for w in (wall_layout(g, "inner"), wall_layout(g, "outer")))
+    return area / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
+
+
+def run_one(name: str, scene, runs: Path, ranks: int) -> dict | None:
+    """Run one scene (skipped if its JSON exists); returns its result row."""
+    table = TABLES / f"{name}.json"
+    if table.exists():
+        return json.loads(table.read_text())
+    out = runs / name
+    out.mkdir(parents=True, exist_ok=True)
+    path = out.parent / f"{name}.toml"
+    write_scene(scene, path)
+    bindir = Path(sys.executable).parent
+    cmd = [str(bindir / "pardem"), "run", str(path), "--out", str(out), "--quiet"]
+    if ranks > 1:
+        cmd = [str(bindir / "mpiexec"), "-n", str(ranks)] + cmd
+    env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
+    print(f"[{name}] start {time.strftime('%H:%M:%S')}", flush=True)
+    t0 = time.perf_counter()
+    done = subprocess.run(cmd, env=env, capture_output=True, text=True)
+    wall = time.perf_counter() - t0
+    if done.returncode != 0:
+        print(f"[{name}] FAILED ({done.returncode}) after {wall:.0f} s:\n{done.stderr[-2000:]}",
+              flush=True)
+        return None
+    row = measure(out)
+    row.update({"name": name, "wall_s": round(wall, 1), "ranks": ranks,
+                "command": " ".join(["pardem", "run", f"{name}.toml", "--out", name]
+                                    if ranks == 1 else ["mpiexec", "-n", str(ranks), "pardem",
+                                                        "run", f"{name}.toml", "--out", name])})
+    TABLES.mkdir(parents=True, exist_ok=True)
+    tmp = table.with_suffix(".tmp")
+    tmp.write_text(json.dumps(row, indent=1, sort_keys=True))
+    os.replace(tmp, table)
+    print(f"[{name}] done in {wall / 60:.1f} min: v0 {row['fit_v0']:.3f} s {row['fit_s']:.3f}",
+          flush=True)
+    return row
+
+
+# ---------------------------------------------------------------- measures of one run
+
+def linear_fit(r: np.ndarray, v: np.ndarray, lo: float = 0.25, hi: float = 8.1):
+    """v = v0 exp(-r/s) by least squares on v itself (not log v): for each s the best v0 is
+    sum(v e)/sum(e^2); s by golden-section search on the residual over 0.05..50."""
+    sel = (r >= lo) & (r <= hi) & np.isfinite(v)
+    r, v = r[sel], v[sel]
+
+    def cost(s):
+        e = np.exp(-r / s)
+        v0 = (v @ e) / (e @ e)
+        return float(np.sum((v - v0 * e) ** 2)), v0
+
+    a, b = math.log(0.05), math.log(50.0)
+    g = (math.sqrt(5) - 1) / 2
+    for _ in range(80):
+        c, d = b - g * (b - a), a + g * (b - a)
+        if cost(math.exp(c))[0] < cost(math.exp(d))[0]:
+            b = d
+        else:
+            a = c
+    s = math.exp(0.5 * (a + b))
+    return cost(s)[1], s
+
+
+def measure(run_dir: Path) -> dict:
+    """Every measure of the study for one finished run folder (rings.h5 + snapshots)."""
+    run = load_run(run_dir)
+    scene = load_scene(run_dir / "scene.toml")
+    f = run["rings"]
+    m = metrics(run)
+    r = f["r_tilde"]
+    out = {k: m[k] for k in ("fit_v0", "fit_s", "nu_bulk", "dilation_deficit", "dilation_width",
+                             "stiffness_excess", "inner_torque", "mu_c_outer")}
+    sheared = scene.geometry.omega_inner != 0
+    sel = (r >= 0.25) & (r <= 8.1) & (f["v_phi_norm"] > 0)
+    fit = out["fit_v0"] * np.exp(-r[sel] / out["fit_s"])
+    out["fit_log_residual"] = (float(np.median(np.abs(np.log(f["v_phi_norm"][sel] / fit))))
+                               if sheared else math.nan)
+    out["lin_v0"], out["lin_s"] = linear_fit(r, f["v_phi_norm"]) if sheared else (math.nan,) * 2
+    band = (r >= 1) & (r <= 3)
+    out["bulk_friction"] = float(np.mean(f["sigma_rphi"][band]) / np.mean(f["sigma_rr"][band]))
+    bulk = (r >= 10) & (r <= 15)
+    out["pressure_bulk"] = float(np.mean(0.5 * f["tr_sigma"][bulk]))  # N/m^2
+    out["trF_bulk"] = float(np.mean(f["tr_F"][bulk]))
+    out["contacts_per_disk_bulk"] = float(np.mean(f["C_number"][bulk]))
+    out["v_phi_bulk"] = float(np.mean(np.abs(f["v_phi_norm"][bulk])))
+    inner = (r >= 0.5) & (r <= 4)
+    spin = f["excess_spin"][inner] / (scene.geometry.omega_inner if sheared else math.nan)
+    smooth = np.convolve(spin, np.ones(8) / 8, mode="same")  # one d~ = 8 rings
+    out["excess_spin_oscillation"] = float(np.std((spin - smooth)[4:-4]))
+    # couple stress: large in the shear band, about zero outside (paper §1.6, Fig. 1.8)
+    m_err = f.get("M_zr_err", np.full(r.size, np.nan))
+    out["M_zr_band"] = float(np.mean(np.abs(f["M_zr"][(r >= 0.25) & (r <= 3)])))
+    outer = (r >= 6) & (r <= 15)
+    out["M_zr_outer_rms"] = float(np.sqrt(np.mean(f["M_zr"][outer] ** 2)))
+    out["M_zr_outer_within_2err"] = float(np.mean(np.abs(f["M_zr"][outer]) < 2 * m_err[outer]))
+    out.update(wall_contacts(run_dir, scene))
+    out["wall_friction"] = out["inner_torque"] / (scene.geometry.inner_radius
+                                                  * out["inner_normal_force"])
+    out["v_bar_wall"] = wall_fraction(scene)
+    out["v_bar"] = global_volume_fraction(scene)
+    out["profile"] = {"r_tilde": r.tolist(), "v_phi_norm": f["v_phi_norm"].tolist(),
+                      "nu": f["nu"].tolist(), "M_zr": f["M_zr"].tolist(),
+                      "M_zr_err": f.get("M_zr_err", np.full(r.size, np.nan)).tolist(),
+                      "kappa_zr": f["kappa_zr"].tolist(), "tr_F": f["tr_F"].tolist(),
+                      "stiffness": f["stiffness"].tolist(),
+                      "excess_spin": f["excess_spin"].tolist()}
+    return out
+
+
+def wall_contacts(run_dir: Path, scene) -> dict:
+    """Contacts of free disks with the inner ring (its wall disks and its flat surface) in the
+    snapshots of the averaging window: the fraction at the Coulomb cap, the angle of their
+    normals from the wall normal e_r, the summed normal force, and v_phi/(Omega r) of the disks
+    that touch it."""
+    cfg, g, mu = scene.averaging, scene.geometry, scene.contact.mu
+    capped, angles, normal_sum, ratios, n_snap, n_flat = [], [], [], [], 0, 0
+    for snap in read_snapshots(run_dir):
+        if not cfg.start - 1e-9 <= snap["time"] <= cfg.end + 1e-9:
+            continue
+        n_snap += 1
+        c, kind = snap["contacts"], snap["kind"]
+        on = kind[c["ids"][:, 1]] == INNER_WALL
+        p = c["ids"][on, 0]
+        normal, fn, ft = c["normal"][on], c["normal_force"][on], c["tangential_force"][on]
+        ring = snap.get("ring_contacts")
+        if ring is not None and len(ring["id"]):
+            sel = ring["ring"] == 1
+            n_flat += int(sel.sum())
+            p = np.concatenate([p, ring["id"][sel]])
+            normal = np.concatenate([normal, ring["normal"][sel]])
+            fn = np.concatenate([fn, ring["normal_force"][sel]])
+            ft = np.concatenate([ft, ring["tangential_force"][sel]])
+        x = snap["position"][p]
+        er = x / np.hypot(x[:, 0], x[:, 1])[:, None]
+        ephi = np.column_stack([-er[:, 1], er[:, 0]])
+        angles.append(np.degrees(np.arctan2(np.sum(normal * ephi, 1), np.sum(normal * er, 1))))
+        with np.errstate(divide="ignore", invalid="ignore"):
+            mob = np.hypot(ft[:, 0], ft[:, 1]) / (mu * np.abs(fn))
+        capped.append(mob >= 0.999)
+        normal_sum.append(fn.sum())
+        touching = np.unique(p)
+        xt, vt = snap["position"][touching], snap["velocity"][touching]
+        rt = np.hypot(xt[:, 0], xt[:, 1])
+        vphi = (xt[:, 0] * vt[:, 1] - xt[:, 1] * vt[:, 0]) / rt
+        ratios.append(vphi / (g.omega_inner * rt) if g.omega_inner else vphi * 0)
+    if not n_snap:
+        raise RuntimeError(f"{run_dir}: no snapshot in the averaging window")
+    ang = np.abs(np.concatenate(angles))
+    return {"inner_capped_fraction": float(np.concatenate(capped).mean()),
+            "inner_normal_angle_mean": float(ang.mean()),
+            "inner_normal_angle_median": float(np.median(ang)),
+            "inner_normal_force": float(np.mean(normal_sum)),
+            "inner_contacts_per_snapshot": float(ang.size / n_snap),
+            "inner_flat_share": float(n_flat / max(ang.size, 1)),
+            "first_layer_speed": float(np.mean(np.concatenate(ratios))),
+            "snapshots": n_snap}
+
+
+# ---------------------------------------------------------------- the rule
+
+def seed_stats(rows: list[dict], key: str):
+    vals = np.array([r[key] for r in rows], float)
+    err = vals.std(ddof=1) / math.sqrt(len(vals)) if len(vals) > 1 else math.nan
+    return float(vals.mean()), float(err)
+
+
+def tests(rows: list[dict]) -> dict:
+    """The qualitative tests (a)-(c) of RULE on one layout's B runs: name -> (passed, text)."""
+    res, _ = seed_stats(rows, "fit_log_residual")
+    dil, dil_err = seed_stats(rows, "dilation_deficit")
+    v0, v0_err = seed_stats(rows, "fit_v0")
+    return {"a": (res < math.log(1.5), f"median |ln(v/fit)| = {res:.3f} (< {math.log(1.5):.3f})"),
+            "b": (dil > 2 * dil_err, f"dilation {dil:.4f} ± {dil_err:.4f}"),
+            "c": (v0 < 1 - 2 * v0_err, f"v0 = {v0:.3f} ± {v0_err:.3f}")}
+
+
+def pick(results: dict[str, list[dict]]) -> tuple[str, str]:
+    """The layout RULE selects from the finished B runs (name -> rows), and why."""
+    survivors = [name for name in PRIOR_ORDER
+                 if results.get(name) and all(ok for ok, _ in tests(results[name]).values())]
+    if survivors:
+        return survivors[0], f"survivors (in the rule's order): {', '.join(survivors)}"
+    return "both-7mm", "no layout passed every test; the rule keeps both-7mm"
+
+
+# ---------------------------------------------------------------- the document
+
+def rows_of(prefix: str) -> list[dict]:
+    return [json.loads(p.read_text()) for p in sorted(TABLES.glob(f"{prefix}-s*.json"))]
+
+
+def fmt(rows: list[dict], key: str, digits: int = 3) -> str:
+    if not rows:
+        return "–"
+    mean, err = seed_stats(rows, key)
+    if len(rows) == 1 or not math.isfinite(err):
+        return f"{mean:.{digits}f}"
+    return f"{mean:.{digits}f} ± {err:.{digits}f}"
+
+
+MEASURES = [("fit_v0", "v₀ (log fit)", 3), ("fit_s", "s (log fit)", 3),
+            ("lin_v0", "v₀ (linear fit)", 3), ("lin_s", "s (linear fit)", 3),
+            ("first_layer_speed", "v_φ/(Ωr), disks touching the inner ring", 3),
+            ("inner_capped_fraction", "inner-wall contacts at the Coulomb cap", 3),
+            ("inner_normal_angle_mean", "mean |angle| of their normals from e_r (deg)", 1),
+            ("inner_flat_share", "share of them on the flat inner surface", 3),
+            ("wall_friction", "wall friction T_in/(R_i Σf_n)", 3),
+            ("bulk_friction", "σ_rφ/σ_rr at 1 ≤ r̃ ≤ 3", 3),
+            ("pressure_bulk", "pressure ½tr σ at 10 ≤ r̃ ≤ 15 (N/m²)", 4),
+            ("trF_bulk", "tr F at 10 ≤ r̃ ≤ 15", 3),
+            ("contacts_per_disk_bulk", "contacts per disk at 10 ≤ r̃ ≤ 15", 3),
+            ("dilation_deficit", "dilation ν(10–15) − ν(1–4)", 4),
+            ("excess_spin_oscillation", "excess-spin oscillation (std / Ω, 0.5 ≤ r̃ ≤ 4)", 4),
+            ("wall_s", "wall time per run (s)", 0)]
+
+
+def write_report(runs: Path) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    figs = DOCS / "roughness"
+    figs.mkdir(parents=True, exist_ok=True)
+    results = {name: rows_of(f"{name}-B") for name in LAYOUTS}
+    done = {k: v for k, v in results.items() if v}
+    lines = ["# Wall roughness: which layout of the glued wall disks, and what it changes", "",
+             "Generated by `run_scripts/roughness_study.py` from the run tables in "
+             "`docs/roughness/runs/` (one JSON per run); do not edit by hand.", "",
+             "The paper fixes only the wall disks' diameter (2.5 mm) and their share of the "
+             "global volume fraction, v̄_wall = 0.0047 (half of each disk counted), about 319 "
+             "disks in all; it does not say how they are shared between the rings, nor whether "
+             "the flat ring surface behind them is a contact surface. These layouts satisfy "
+             "that constraint; each is simulation B, the full protocol (239 s, averages "
+             "180–239 s), 3 seeds, values as seed mean ± standard error of that mean.", "",
+             "## The decision rule", "", RULE, "## Layouts", "",
+             "| layout | wall disks (inner + outer) | v̄_wall | description |", "|---|---|---|---|"]
+    for name, (keys, text) in LAYOUTS.items():
+        sc = scene_for("B", name, 1)
+        g = sc.geometry
+        lines.append(f"| `{name}` | {wall_layout(g, 'inner').count} + "
+                     f"{wall_layout(g, 'outer').count} | {wall_fraction(sc):.5f} | {text} |")
+    lines += ["", "## Results (simulation B)", "",
+              "| measure | " + " | ".join(f"`{n}`" for n in done) + " |",
+              "|---|" + "---|" * len(done)]
+    for key, label, digits in MEASURES:
+        lines.append(f"| {label} | " + " | ".join(fmt(rows, key, digits)
+                                                  for rows in done.values()) + " |")
+    lines.append(f"| runs finished | " + " | ".join(str(len(r)) for r in done.values()) + " |")
+    lines += ["", f"The paper's B: v₀ = {PAPER['B']['v0']}, s = {PAPER['B']['s']}.", "",
+              "## The rule applied", ""]
+    complete = all(len(results[n]) == len(SEEDS) for n in PRIOR_ORDER)
+    for name in PRIOR_ORDER:
+        if results[name]:
+            t = tests(results[name])
+            lines.append(f"- `{name}`: " + "; ".join(
+                f"({k}) {'pass' if ok else 'FAIL'}: {text}" for k, (ok, text) in t.items()))
+    if complete:
+        chosen, why = pick(results)
+        v0s = [seed_stats(results[n], "fit_v0")[0] for n in PRIOR_ORDER]
+        lines += ["", f"**Picked: `{chosen}`** ({why})."]
+        if min(v0s) < PAPER["B"]["v0"] < max(v0s):
+            lines.append(f"The admitted layouts' v₀ range from {min(v0s):.3f} to {max(v0s):.3f} "
+                         f"and bracket the paper's {PAPER['B']['v0']}: the paper's description "
+                         "of its walls does not determine v₀.")
+    else:
+        lines += ["", "The layout runs are not all finished; the rule is applied when they are."]
+    lines += ["", "## Claims of the paper without figures", ""]
+    lines += claims_section()
+    lines += ["", "## Runs", "", "| run | command | ranks | wall time (s) |", "|---|---|---|---|"]
+    for p in sorted(TABLES.glob("*.json")):
+        row = json.loads(p.read_text())
+        lines.append(f"| {row['name']} | `{row['command']}` | {row['ranks']} | "
+                     f"{row['wall_s']:.0f} |")
+    plot_profiles(done, figs, plt)
+    text = "\n".join(lines) + "\n"
+    tmp = DOCS / "roughness.md.tmp"
+    tmp.write_text(text)
+    os.replace(tmp, DOCS / "roughness.md")
+
+
+def plot_profiles(done: dict, figs: Path, plt) -> None:
+    fig, ax = plt.subplots(1, 2, figsize=(10, 4))
+    for k, (name, rows) in enumerate(done.items()):
+        r = np.array(rows[0]["profile"]["r_tilde"])
+        v = np.mean([row["profile"]["v_phi_norm"] for row in rows], axis=0)
+        nu = np.mean([row["profile"]["nu"] for row in rows], axis=0)
+        ax[0].semilogy(r, np.where(v > 0, v, np.nan), ".", ms=3, color=f"C{k}", label=name)
+        ax[1].plot(r, nu, "-", lw=0.8, color=f"C{k}", label=name)
+    r = np.linspace(0.25, 8.1, 50)
+    ax[0].semilogy(r, PAPER["B"]["v0"] * np.exp(-r / PAPER["B"]["s"]), "k--", lw=1,
+                   label="paper's fit (B)")
+    ax[0].set(xlabel="r̃ = (r − R_i)/d̃", ylabel="v_φ/(ΩR_i)", xlim=(0, 15), ylim=(1e-4, 2),
+              title="velocity, simulation B, seed mean")
+    ax[1].set(xlabel="r̃", ylabel="ν", xlim=(0, 15), ylim=(0.5, 1.0),
+              title="volume fraction, simulation B, seed mean")
+    ax[0].legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(figs / "layouts_B.png", dpi=120)
+    plt.close(fig)
+
+
+CLAIMS = {
+    "claim-kn4": ({"contact": {"k_n": 4 * 352.1}}, "k_n × 4"),
+    "claim-nofriction": ({"effects": {"tangential_friction": False, "bottom_friction": False}},
+                         "neither bottom nor tangential friction"),
+    "claim-noshear": ({"geometry": {"omega_inner": 0.0}}, "Ω = 0 (no shear)"),
+}
+
+
+def claims_section() -> list[str]:
+    rows = {name: rows_of(name) for name in CLAIMS}
+    if not any(rows.values()):
+        return ["Not run yet (stage `claims`)."]
+    out = ["| run | stiffness excess (2πĒ/k'_n)/tr F − 1, 1 ≤ r̃ ≤ 15 | tr F bulk |",
+           "|---|---|---|"]
+    for name, (_, label) in CLAIMS.items():
+        if rows[name]:
+            out.append(f"| {label} | {fmt(rows[name], 'stiffness_excess', 4)} | "
+                       f"{fmt(rows[name], 'trF_bulk')} |")
+    return out
+
+
+# ---------------------------------------------------------------- main
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--runs", type=Path, default=ROOT / "runs" / "roughness")
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--ranks", type=int, default=1)
+    ap.add_argument("--stage", choices=["layouts", "picked", "claims", "all"], default="all")
+    ap.add_argument("--report-only", action="store_true")
+    args = ap.parse_args(argv)
+    for name in LAYOUTS:  # the admission test of RULE 1, before anything runs
+        frac = wall_fraction(scene_for("B", name, 1))
+        if abs(frac - WALL_FRACTION[0]) > WALL_FRACTION[1]:
+            raise SystemExit(f"layout {name}: v_bar_wall = {frac:.5f} is not admitted")
+    if not args.report_only:
+        jobs = []
+        if args.stage in ("layouts", "all"):
+            jobs += [(f"{n}-B-s{s}", scene_for("B", n, s)) for s in SEEDS for n in LAYOUTS]
+        with ThreadPoolExecutor(args.jobs) as pool:
+            list(pool.map(lambda j: run_one(*j, args.runs, args.ranks), jobs))
+        write_report(args.runs)
+        results = {name: rows_of(f"{name}-B") for name in LAYOUTS}
+        ready = all(len(results[n]) == len(SEEDS) for n in PRIOR_ORDER)
+        if args.stage in ("picked", "claims", "all") and not ready:
+            print("layout runs incomplete: the rule cannot pick yet", flush=True)
+            return 1
+        chosen = pick(results)[0] if ready else None
+        jobs = []
+        if args.stage in ("picked", "all"):
+            jobs += [(f"{chosen}-{x}-s{s}", scene_for(x, chosen, s))
+                     for s in SEEDS for x in ("A", "C")]
+        if args.stage in ("claims", "all"):
+            jobs += [(name, scene_for("B", chosen, 1, **changes))
+                     for name, (changes, _) in CLAIMS.items()]
+        with ThreadPoolExecutor(args.jobs) as pool:
+            list(pool.map(lambda j: run_one(*j, args.runs, args.ranks), jobs))
+    write_report(args.runs)
+    print(f"wrote {DOCS / 'roughness.md'}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

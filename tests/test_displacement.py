@@ -1,0 +1,143 @@
+"""The paper's contact displacement eta (eq. 1.3): the total tangential displacement of a
+contact, integral of v_t dt over its life, kept beside the Cundall-Strack spring xi.
+
+eta must (1) equal the integral of the relative tangential velocity (analytic, for disks that
+slide past each other at constant velocity), (2) equal the spring bit for bit while no
+contact has slid, (3) never change the dynamics, and (4) make the couple stress and the
+curvature differ where contacts slide: with the spring, M = (k_t / pi h) kappa . F holds
+identically, ring by ring (f_t = -k_t xi, Delta_t = -xi), so mu_c would restate the fabric.
+"""
+
+import dataclasses
+import math
+
+import numpy as np
+import pytest
+from helpers import D_SMALL, K_T, couette_scene, free_scene
+
+from averaging.collect import sample_simulation
+from averaging.rings import RingAverager
+from pardem.simulation import Simulation
+
+
+def _shear_cell(mu=0.44, averaging=None, output=None, end=0.4):
+    """A small dense cell compressed in 0.1 s and sheared at 10 rad/s: contacts slide."""
+    g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
+         "compression_time": 0.1, "omega_inner": 10.0}
+    scene = couette_scene(counts=(260, 40), geometry=g, time={"end": end}, output=output,
+                          averaging=averaging, name="shear-cell")
+    return dataclasses.replace(scene, contact=dataclasses.replace(scene.contact, mu=mu))
+
+
+def _averager(sim):
+    g, c = sim.scene.geometry, sim.scene.contact
+    return RingAverager(g.inner_radius, g.outer_radius, D_SMALL / 4, "slice", c.height,
+                        8e-3, c.k_n, g.omega_inner)
+
+
+def _with_displacement(sim, which):
+    """The same Simulation object, sampled with another [averaging] displacement."""
+    sim.scene = dataclasses.replace(sim.scene, averaging=dataclasses.replace(
+        sim.scene.averaging, displacement=which))
+    return sim
+
+
+def _fields_at_end(sim, which):
+    avg = _averager(sim)
+    avg.add(sample_simulation(_with_displacement(sim, which)), sim.time)
+    return avg.fields()
+
+
+def test_eta_is_the_integral_of_the_tangential_velocity():
+    """Two disks of huge mass (constant velocities) slide past each other: disk 1 rests at the
+    origin, disk 0 moves along x at u with its centre at height y0 < a0 + a1, so they overlap
+    all the time. v_ij . t = -u y0/|r| with t = z x n, so eta . t = -y0 [asinh(x/y0)] from x0
+    to x0 + u T (independent of the code). The spring stays capped at mu f_n / k_t."""
+    a = D_SMALL / 2
+    y0, x0, u, end = 0.995 * 2 * a, -3e-4, 0.01, 0.06
+    big = 1e9  # kg: forces of ~0.01 N change nothing
+    scene = free_scene([{"x": x0, "y": y0, "vx": u, "diameter": D_SMALL, "mass": big},
+                        {"x": 0.0, "y": 0.0, "diameter": D_SMALL, "mass": big}],
+                       effects={"tangential_friction": True},
+                       time={"dt": 1e-5, "end": end})
+    sim = Simulation(scene)
+    sim.run(progress=False)
+    c = sim.contacts()
+    assert c["ids"].tolist() == [[0, 1]]
+    n = c["normal"][0]
+    t_hat = np.array([-n[1], n[0]])
+    x1 = x0 + u * sim.time
+    expected = -y0 * (math.asinh(x1 / y0) - math.asinh(x0 / y0))
+    eta = c["displacement"][0]
+    assert abs(eta @ n) < 1e-12  # kept in the tangent plane
+    assert eta @ t_hat == pytest.approx(expected, rel=1e-3)
+    cap = scene.contact.mu * abs(c["normal_force"][0]) / K_T
+    assert np.hypot(*c["spring"][0]) == pytest.approx(cap, rel=1e-6)
+    assert abs(expected) > 20 * cap  # the contact slid far beyond its spring
+
+
+def test_sliding_contacts_break_the_spring_identity_and_eta_does_not_restate_it():
+    sim = Simulation(_shear_cell(averaging={"start": 0.0, "end": 0.4}))
+    sim.run(progress=False)
+    table = sim.contacts()
+    sliding = table["sliding"].astype(bool)
+    assert sliding.sum() >= 20  # the case needs contacts at the Coulomb cap
+    eta, xi = table["displacement"], table["spring"]
+    # a contact at the cap has slid: eta - xi is its accumulated slip (of either sign)
+    slip = np.hypot(*(eta - xi)[sliding].T)
+    assert np.all(slip > 0) and np.median(slip / np.hypot(*xi[sliding].T)) > 1
+    h = sim.scene.contact.height
+    for which, holds in (("spring", True), ("eta", False)):
+        f = _fields_at_end(sim, which)
+        ok = np.isfinite(f["kappa_zr"]) & (np.abs(f["M_zr"]) > 0)
+        k_dot_f = {c: f["kappa_zr"] * f[f"F_r{c}"] + f["kappa_zphi"] * f[f"F_phi{c}"]
+                   for c in ("r", "phi")}
+        mismatch = np.abs(f["M_zr"] - K_T / (math.pi * h) * k_dot_f["r"])[ok]
+        scale = np.abs(f["M_zr"][ok])
+        if holds:
+            assert np.all(mismatch <= 1e-9 * scale + 1e-300), which
+            m_phi = f["M_zphi"] - K_T / (math.pi * h) * k_dot_f["phi"]
+            assert np.all(np.abs(m_phi[ok]) <= 1e-9 * np.abs(f["M_zphi"][ok]) + 1e-300)
+        else:
+            assert np.sum(mismatch > 0.1 * scale) >= 10, which
+
+
+def test_without_sliding_eta_is_the_spring_and_the_averages_agree():
+    """mu so large that no contact reaches the cap: eta = xi bit for bit, so both choices of
+    Delta give identical ring sums."""
+    sim = Simulation(_shear_cell(mu=1e6, averaging={"start": 0.0, "end": 0.4}, end=0.2))
+    sim.run(progress=False)
+    table = sim.contacts()
+    assert len(table["ids"]) > 300 and not table["sliding"].any()
+    assert np.array_equal(table["displacement"], table["spring"])
+    ring = sim.ring_contacts()
+    assert len(ring["id"]) > 0 and np.array_equal(ring["displacement"], ring["spring"])
+    sums = []
+    for which in ("spring", "eta"):
+        avg = _averager(sim)
+        avg.add(sample_simulation(_with_displacement(sim, which)), sim.time)
+        sums.append(avg.samples[0])
+    assert np.array_equal(sums[0], sums[1])
+
+
+def test_tracking_eta_leaves_the_trajectory_and_costs_a_history_only_where_read():
+    """With eta tracked (contacts written) and without (no contacts, spring averages) the
+    states agree bit for bit; only the history width differs."""
+    plain = _shear_cell(output={"contacts": False}, averaging={"displacement": "spring"},
+                        end=0.25)
+    tracked = _shear_cell(end=0.25)
+    runs = []
+    for scene in (plain, tracked):
+        sim = Simulation(scene)
+        sim.run(progress=False)
+        runs.append(sim)
+    assert (runs[0].hist, runs[1].hist) == (2, 4)
+    a, b = (r.checkpoint_state()[0] for r in runs)
+    for key in ("x", "v", "omega", "theta", "f", "tau"):
+        assert np.array_equal(a[key], b[key]), key
+    assert np.array_equal(a["pair_xi"], b["pair_xi"][:, :2])
+    assert np.array_equal(a["xi_wall"], b["xi_wall"][:, :2])
+    frictionless = _shear_cell(end=0.01)
+    frictionless = dataclasses.replace(frictionless, effects=dataclasses.replace(
+        frictionless.effects, tangential_friction=False))
+    assert Simulation(frictionless).hist == 0
