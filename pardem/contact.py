@@ -112,16 +112,16 @@ def tangential_displacement(ex, ey, nx, ny, vx, vy, dt):
 def pair_displacement(dx, dy, ai, aj, dvx, dvy, wi, wj, ex, ey, dt):
     """``tangential_displacement`` of a disk-disk pair from pair_force's inputs, with
     pair_force's geometry; (0, 0) unless the disks overlap (a new contact starts from zero,
-    like the spring)."""
+    like the spring). Selects, not branches, so that the batched pair loop stays vectorised."""
     pd_dist = math.sqrt(dx * dx + dy * dy)
-    if ai + aj - pd_dist <= 0.0:
-        return 0.0, 0.0
     pd_inv = 1.0 / pd_dist
     pd_nx = dx * pd_inv
     pd_ny = dy * pd_inv
     pd_s = ai * wi + aj * wj
-    return tangential_displacement(ex, ey, pd_nx, pd_ny, dvx + pd_s * pd_ny, dvy - pd_s * pd_nx,
-                                   dt)
+    pd_ex, pd_ey = tangential_displacement(ex, ey, pd_nx, pd_ny, dvx + pd_s * pd_ny,
+                                           dvy - pd_s * pd_nx, dt)
+    pd_on = ai + aj - pd_dist > 0.0
+    return (pd_ex if pd_on else 0.0), (pd_ey if pd_on else 0.0)
 
 
 @nb.njit(**INLINE)

@@ -42,17 +42,17 @@ class SimulationError(RuntimeError):
     """The run became invalid (non-finite value, particle left the cell)."""
 
 
-def tracks_eta(scene: Scene) -> bool:
+def tracks_eta(scene: Scene, writes_output: bool) -> bool:
     """Whether a run keeps the paper's total tangential displacement eta (eq. 1.3) per contact:
     only with tangential friction (without it no tangential history is kept), and only where
     something reads it: in-situ averaging with [averaging] displacement = "eta" (the default),
-    or contacts written with the snapshots (offline averaging may use either displacement).
-    Otherwise the step loop is compiled without it and costs nothing extra."""
+    or contacts written with the snapshots (``writes_output``; offline averaging may use either
+    displacement). Otherwise the step loop is compiled without it and costs nothing extra."""
     if not scene.effects.tangential_friction:
         return False
     avg = scene.averaging
-    return scene.output.contacts or (avg is not None and scene.geometry is not None
-                                     and avg.displacement == "eta")
+    return ((writes_output and scene.output.contacts)
+            or (avg is not None and scene.geometry is not None and avg.displacement == "eta"))
 
 
 class Simulation:
@@ -75,7 +75,7 @@ class Simulation:
         self.dt = resolve_dt(scene)
         e = scene.effects
         self.friction = e.tangential_friction
-        self.eta = tracks_eta(scene)
+        self.eta = tracks_eta(scene, out_dir is not None)
         self.hist = history_width(self.friction, self.eta)
         self.options = StepOptions(
             LawOptions(e.normal_damping, e.tangential_friction, e.clip_attractive_normal),

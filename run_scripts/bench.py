@@ -2,6 +2,7 @@
 and start-up cost.
 
     python run_scripts/bench.py [--steps 20000] [--repeats 5] [--ranks 1 2] [--startup]
+                                [--eta off|on|both]
 
 Compresses scene B once (t = 0 .. 2.5 s, not timed) and checkpoints it. Then times
 ``--repeats`` rounds of ``--steps`` shear steps, each round one run per rank count (in turn),
@@ -10,7 +11,10 @@ core per rank; the clock starts after warm-up steps that include two neighbour b
 stops at the last step of the slowest rank). Prints every run, the median, rank 0's per-stage
 breakdown and the 2-rank speed-up (ratio of the medians, and the median of the per-round
 ratios). ``--startup`` also measures `pardem run` from process start to the first step, with
-an empty numba cache (cold) and again with the cache filled (warm).
+an empty numba cache (cold) and again with the cache filled (warm). ``--eta``: whether the step
+loop also tracks the paper's total tangential displacement eta (what a run that averages with
+it or writes contacts pays); "both" alternates the two within every round and prints the cost
+of eta as the ratio of the medians. Default "off", the dynamics alone.
 """
 
 from __future__ import annotations
@@ -29,11 +33,22 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 HERE = Path(__file__).resolve().parent
 
 
-def compress(ckpt: Path) -> None:
+def scene_b(eta: bool):
+    """couette_B whose in-situ averages use eta (tracked) or the spring (not tracked); the
+    benchmark writes no output, so nothing else asks for eta."""
+    import dataclasses
+
     from pardem.scene import load_scene
+
+    scene = load_scene(HERE / "couette_B.toml")
+    return dataclasses.replace(scene, averaging=dataclasses.replace(
+        scene.averaging, displacement="eta" if eta else "spring"))
+
+
+def compress(ckpt: Path) -> None:
     from pardem.simulation import Simulation
 
-    sim = Simulation(load_scene(HERE / "couette_B.toml"))
+    sim = Simulation(scene_b(False))
     t0 = time.perf_counter()
     sim.run(end=2.5, progress=False)
     print(f"compression to t = 2.5 s: {time.perf_counter() - t0:.1f} s wall, "
@@ -41,15 +56,15 @@ def compress(ckpt: Path) -> None:
     sim.write_checkpoint(ckpt)
 
 
-def worker(ckpt: str, steps: int) -> None:
+def worker(ckpt: str, steps: int, eta: bool) -> None:
     """One timed run (under mpiexec): prints a JSON line on rank 0."""
     from mpi4py import MPI
 
-    from pardem.scene import load_scene
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD
-    run = Simulation(load_scene(HERE / "couette_B.toml"), restart=ckpt, comm=comm)
+    run = Simulation(scene_b(eta), restart=ckpt, comm=comm)
+    assert run.eta == eta
     # compiled code loaded and caches warm, the builds' code included
     builds = run.n_rebuilds
     while run.n_rebuilds < builds + 2:
@@ -77,31 +92,48 @@ def worker(ckpt: str, steps: int) -> None:
                           "breakdown": run.breakdown()}))
 
 
-def throughput(steps: int, repeats: int, ranks: list[int]) -> dict[int, float]:
+def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off"
+               ) -> dict[int, float]:
     """Median flow-particle-steps/s for each rank count (also printed, with every run).
 
     The rank counts take turns (round k runs every count once), so that the machine's slow
     drifts (a shared VM: +-15 % over minutes) hit every count alike; the speed-up is also given
-    as the median of the per-round ratios, each from runs a few seconds apart."""
+    as the median of the per-round ratios, each from runs a few seconds apart. ``eta`` "both":
+    each rank count runs without and with eta in turn; the cost of eta is printed likewise."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     mpiexec = Path(sys.executable).parent / "mpiexec"
-    rates: dict[int, list[float]] = {p: [] for p in ranks}
-    last: dict[int, dict] = {}
+    variants = {"off": [False], "on": [True], "both": [False, True]}[eta]
+    rates: dict = {(p, e): [] for p in ranks for e in variants}
+    last: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
         ckpt = Path(tmp) / "compressed.h5"
         compress(ckpt)
         for k in range(repeats):
             for p in ranks:
-                out = subprocess.run(
-                    [str(mpiexec), "-n", str(p), sys.executable, "-m", "mpi4py", __file__,
-                     "--worker", str(ckpt), "--steps", str(steps)],
-                    check=True, capture_output=True, text=True, env=env, timeout=3600)
-                res = last[p] = json.loads(out.stdout.strip().splitlines()[-1])
-                rates[p].append(res["n_free"] * steps / res["wall"])
-                print(f"{p} rank(s), run {k + 1}: {steps} steps in {res['wall']:.3f} s -> "
-                      f"{rates[p][-1] / 1e6:.2f} M flow-particle-steps/s "
-                      f"({steps / res['wall']:.0f} steps/s, {res['rebuilds']} neighbour builds, "
-                      f"ghosts per rank {res['ghosts']})", flush=True)
+                for e in variants:
+                    out = subprocess.run(
+                        [str(mpiexec), "-n", str(p), sys.executable, "-m", "mpi4py", __file__,
+                         "--worker", str(ckpt), "--steps", str(steps), "--eta",
+                         "on" if e else "off"],
+                        check=True, capture_output=True, text=True, env=env, timeout=3600)
+                    res = last[p, e] = json.loads(out.stdout.strip().splitlines()[-1])
+                    rates[p, e].append(res["n_free"] * steps / res["wall"])
+                    print(f"{p} rank(s){', eta' if e else ''}, run {k + 1}: {steps} steps in "
+                          f"{res['wall']:.3f} s -> {rates[p, e][-1] / 1e6:.2f} M "
+                          f"flow-particle-steps/s ({steps / res['wall']:.0f} steps/s, "
+                          f"{res['rebuilds']} neighbour builds, ghosts per rank {res['ghosts']})",
+                          flush=True)
+    if eta == "both":
+        for p in ranks:
+            off, on = rates[p, False], rates[p, True]
+            per_round = [a / b for a, b in zip(off, on)]
+            print(f"cost of eta on {p} rank(s): time per step x "
+                  f"{statistics.median(off) / statistics.median(on):.3f} (ratio of the medians,"
+                  f" {statistics.median(off) / 1e6:.2f} M without, {statistics.median(on) / 1e6:.2f}"
+                  f" M with); per round: {', '.join(f'{x:.3f}' for x in per_round)}, spread "
+                  f"{min(per_round):.3f}-{max(per_round):.3f}", flush=True)
+    rates = {p: rates[p, variants[0]] for p in ranks}
+    last = {p: last[p, variants[0]] for p in ranks}
     medians = {}
     for p in ranks:
         res = last[p]
@@ -147,14 +179,15 @@ def main() -> None:
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--startup", action="store_true")
+    ap.add_argument("--eta", choices=["off", "on", "both"], default="off")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        worker(args.worker, args.steps)
+        worker(args.worker, args.steps, args.eta == "on")
         return
     if args.startup:
         startup()
-    throughput(args.steps, args.repeats, args.ranks)
+    throughput(args.steps, args.repeats, args.ranks, args.eta)
 
 
 if __name__ == "__main__":

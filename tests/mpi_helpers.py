@@ -45,10 +45,10 @@ def run_mpi(args: list[str], n: int, timeout: float = 120, check: bool = True,
 
 
 def dump_state(scene: Path, steps: int, out: Path, n: int, *extra: str,
-               env: dict | None = None) -> dict:
+               env: dict | None = None, timeout: float = 120) -> dict:
     """Run tests/mpi/dump_state.py on n ranks; return the saved arrays."""
     run_mpi([str(MPI_DIR / "dump_state.py"), str(scene), str(steps), str(out), *extra], n,
-            env=env)
+            env=env, timeout=timeout)
     with np.load(out) as f:
         return {k: f[k] for k in f.files}
 

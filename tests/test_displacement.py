@@ -48,7 +48,7 @@ def _fields_at_end(sim, which):
     return avg.fields()
 
 
-def test_eta_is_the_integral_of_the_tangential_velocity():
+def test_eta_is_the_integral_of_the_tangential_velocity(tmp_path):
     """Two disks of huge mass (constant velocities) slide past each other: disk 1 rests at the
     origin, disk 0 moves along x at u with its centre at height y0 < a0 + a1, so they overlap
     all the time. v_ij . t = -u y0/|r| with t = z x n, so eta . t = -y0 [asinh(x/y0)] from x0
@@ -60,7 +60,7 @@ def test_eta_is_the_integral_of_the_tangential_velocity():
                         {"x": 0.0, "y": 0.0, "diameter": D_SMALL, "mass": big}],
                        effects={"tangential_friction": True},
                        time={"dt": 1e-5, "end": end})
-    sim = Simulation(scene)
+    sim = Simulation(scene, out_dir=tmp_path)  # contacts written: eta tracked
     sim.run(progress=False)
     c = sim.contacts()
     assert c["ids"].tolist() == [[0, 1]]
@@ -120,18 +120,18 @@ def test_without_sliding_eta_is_the_spring_and_the_averages_agree():
     assert np.array_equal(sums[0], sums[1])
 
 
-def test_tracking_eta_leaves_the_trajectory_and_costs_a_history_only_where_read():
-    """With eta tracked (contacts written) and without (no contacts, spring averages) the
+def test_tracking_eta_leaves_the_trajectory_and_costs_a_history_only_where_read(tmp_path):
+    """With eta tracked (contacts written) and without (no output, spring averages) the
     states agree bit for bit; only the history width differs."""
-    plain = _shear_cell(output={"contacts": False}, averaging={"displacement": "spring"},
-                        end=0.25)
-    tracked = _shear_cell(end=0.25)
+    plain = _shear_cell(averaging={"displacement": "spring"}, end=0.25)
+    tracked = _shear_cell(averaging={"displacement": "spring"}, end=0.25)
     runs = []
-    for scene in (plain, tracked):
-        sim = Simulation(scene)
+    for scene, out in ((plain, None), (tracked, tmp_path)):
+        sim = Simulation(scene, out_dir=out)
         sim.run(progress=False)
         runs.append(sim)
     assert (runs[0].hist, runs[1].hist) == (2, 4)
+    assert Simulation(_shear_cell(averaging={"start": 0.0}, end=0.01)).hist == 4  # eta averages
     a, b = (r.checkpoint_state()[0] for r in runs)
     for key in ("x", "v", "omega", "theta", "f", "tau"):
         assert np.array_equal(a[key], b[key]), key
@@ -141,3 +141,24 @@ def test_tracking_eta_leaves_the_trajectory_and_costs_a_history_only_where_read(
     frictionless = dataclasses.replace(frictionless, effects=dataclasses.replace(
         frictionless.effects, tangential_friction=False))
     assert Simulation(frictionless).hist == 0
+
+
+def test_a_checkpoint_without_eta_restarts_with_eta_from_the_spring(tmp_path):
+    """A checkpoint written without eta (spring averages, no output) restarts into a run that
+    tracks it: eta starts as the spring (exact for contacts that have not slid), and the run
+    goes on like the uninterrupted one, without eta."""
+    plain = _shear_cell(averaging={"displacement": "spring"}, end=0.3)
+    ref = Simulation(plain)
+    ref.run(end=0.15, progress=False)
+    ref.write_checkpoint(tmp_path / "c.h5")
+    ref.run(end=0.3, progress=False)
+    again = Simulation(_shear_cell(averaging={"displacement": "eta"}, end=0.3),
+                       restart=tmp_path / "c.h5")
+    assert again.hist == 4
+    c = again.contacts()
+    assert len(c["ids"]) > 100 and np.array_equal(c["displacement"], c["spring"])
+    again.run(end=0.3, progress=False)
+    a, b = again.checkpoint_state()[0], ref.checkpoint_state()[0]
+    for key in ("x", "v", "omega", "f", "tau"):
+        assert np.array_equal(a[key], b[key]), key
+    assert np.array_equal(a["pair_xi"][:, :2], b["pair_xi"])
