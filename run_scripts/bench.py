@@ -127,10 +127,10 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off"
         for p in ranks:
             off, on = rates[p, False], rates[p, True]
             per_round = [a / b for a, b in zip(off, on)]
-            print(f"cost of eta on {p} rank(s): time per step x "
-                  f"{statistics.median(off) / statistics.median(on):.3f} (ratio of the medians,"
-                  f" {statistics.median(off) / 1e6:.2f} M without, {statistics.median(on) / 1e6:.2f}"
-                  f" M with); per round: {', '.join(f'{x:.3f}' for x in per_round)}, spread "
+            m_off, m_on = statistics.median(off), statistics.median(on)
+            print(f"cost of eta on {p} rank(s): time per step x {m_off / m_on:.3f} (ratio of the "
+                  f"medians, {m_off / 1e6:.2f} M without, {m_on / 1e6:.2f} M with); per round: "
+                  f"{', '.join(f'{x:.3f}' for x in per_round)}, spread "
                   f"{min(per_round):.3f}-{max(per_round):.3f}", flush=True)
     rates = {p: rates[p, variants[0]] for p in ranks}
     last = {p: last[p, variants[0]] for p in ranks}

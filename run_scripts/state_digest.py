@@ -7,8 +7,9 @@ Runs SCENE to time T (s; default the scene's end) without output and prints one 
 every gathered particle array (sorted by id), the tangential springs keyed by gid pair (the
 spring columns only: eta, where tracked, is not part of the dynamics) and, if the scene
 averages, the raw ring sums of every sample (``--displacement`` overrides the scene's
-[averaging] displacement). ``--expect HEX`` exits 1 unless the digest matches. Bits depend on the machine's compiled code, so compare digests made on one
-machine (before and after a change), never across machines.
+[averaging] displacement). ``--expect HEX`` exits 1 unless the digest matches. Bits depend
+on the machine's compiled code, so compare digests made on one machine (before and after a
+change), never across machines.
 """
 
 from __future__ import annotations

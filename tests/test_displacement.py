@@ -17,6 +17,7 @@ from helpers import D_SMALL, K_T, couette_scene, free_scene
 
 from averaging.collect import sample_simulation
 from averaging.rings import RingAverager
+from pardem.output.snapshots import read_snapshots
 from pardem.simulation import Simulation
 
 
@@ -74,6 +75,8 @@ def test_eta_is_the_integral_of_the_tangential_velocity(tmp_path):
     cap = scene.contact.mu * abs(c["normal_force"][0]) / K_T
     assert np.hypot(*c["spring"][0]) == pytest.approx(cap, rel=1e-6)
     assert abs(expected) > 20 * cap  # the contact slid far beyond its spring
+    last = list(read_snapshots(tmp_path))[-1]  # written with the snapshot, like the spring
+    assert np.array_equal(last["contacts"]["displacement"], c["displacement"])
 
 
 def test_sliding_contacts_break_the_spring_identity_and_eta_does_not_restate_it():
