@@ -13,9 +13,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pardem import diagnostics as diag
 from pardem.state import INNER_WALL
-from pardem.walls import outer_radius
 
 from .boundary import torque_on
 
@@ -86,43 +84,32 @@ def oriented_rows(i, j, as_i, as_j, pairs: dict, ring_owner=None, ring: dict | N
 
 
 def sample_simulation(sim) -> Sample:
-    """This rank's sample of a running Simulation (collective under MPI: ghost velocities are
-    refreshed for the damping part of the contact forces)."""
-    sim.sync_ghost_velocities()
-    ps, pairs, prm, clock = sim.ps, sim.pairs, sim.prm, sim.clock
-    e = sim.scene.effects
-    n_move = int(clock.n_move[0])
-    n_all = int(clock.n_local[0] + clock.n_ghost[0])
-    t = diag.contact_table(ps, pairs, prm, sim.friction, e.normal_damping, n_all,
-                           local_index=True)
+    """This rank's sample of a running Simulation: its owned particles and every touching
+    contact with an owned partner, with the forces the last step applied."""
+    rows, n_move, tables = sim.local_view()
+    t, ring = tables.pairs, tables.rings
     i, j = t["index"][:, 0], t["index"][:, 1]
-    ring, ring_owner = None, None
-    if sim.options.walls:
-        r_out, rate = outer_radius(sim.time, prm)
-        ring = diag.ring_contact_table(ps, pairs, prm, r_out, rate, sim.friction,
-                                       e.normal_damping)
-        ring_owner = ring["index"]
-    # j < n_move: j is an owned free particle
     cfg = sim.scene.averaging
     owner, normal, overlap, force, tangential = oriented_rows(
-        i, j, i < n_move, j < n_move, t, ring_owner, ring,
+        i, j, i < n_move, j < n_move, t, None if ring is None else ring["index"], ring,
         cfg.displacement if cfg is not None else "eta")
     sl = slice(0, n_move)
-    return from_contacts(ps.x[sl], ps.v[sl], ps.omega[sl], ps.radius[sl], ps.mass[sl],
-                         owner, normal, overlap, force, tangential,
-                         _inner_torque(ps, t, i, j, n_move, ring))
+    return from_contacts(rows["x"][sl], rows["v"][sl], rows["omega"][sl], rows["radius"][sl],
+                         rows["mass"][sl], owner, normal, overlap, force, tangential,
+                         _inner_torque(rows, t, i, j, n_move, ring))
 
 
-def _inner_torque(ps, t: dict, i, j, n_move: int, ring: dict | None) -> float:
+def _inner_torque(rows: dict, t: dict, i, j, n_move: int, ring: dict | None) -> float:
     """Torque of the inner ring on this rank's particles: their contacts with inner wall disks
     (a wall disk is always the higher-gid partner j) and with the flat inner surface."""
-    on = (i < n_move) & (ps.kind[j] == INNER_WALL)
+    on = (i < n_move) & (rows["kind"][j] == INNER_WALL)
     f = t["normal_force"][on, None] * t["normal"][on] + t["tangential_force"][on]
     p = i[on]
-    torque = torque_on(ps.x[p], ps.radius[p], t["normal"][on], t["overlap"][on], f)
+    torque = torque_on(rows["x"][p], rows["radius"][p], t["normal"][on], t["overlap"][on], f)
     if ring is not None:
         sel = ring["ring"] == 1
         p = ring["index"][sel]
         f = ring["normal_force"][sel, None] * ring["normal"][sel] + ring["tangential_force"][sel]
-        torque += torque_on(ps.x[p], ps.radius[p], ring["normal"][sel], ring["overlap"][sel], f)
+        torque += torque_on(rows["x"][p], rows["radius"][p], ring["normal"][sel],
+                            ring["overlap"][sel], f)
     return torque

@@ -15,7 +15,7 @@ import numpy as np
 
 from pardem.output.snapshots import read_snapshots
 from pardem.scene import SceneError, load_scene
-from pardem.simulation import sample_steps
+from pardem.output.writers import sample_steps
 from pardem.timestep import resolve_dt
 
 from .boundary import inner_ring_torque

@@ -68,14 +68,14 @@ class RingAverager:
     """Rings of width ``dr`` (m) from ``r_in`` to ``r_out`` (m) about the axis."""
 
     def __init__(self, r_in: float, r_out: float, dr: float, weighting: str, height: float,
-                 d_ref: float, k_n: float, omega_in: float, comm=None):
+                 d_ref: float, k_n: float, omega_in: float, reducer=None):
         if weighting not in WEIGHTINGS:
             raise ValueError(f"weighting {weighting!r}: allowed are {sorted(WEIGHTINGS)}")
         self.r_in, self.dr, self.height, self.d_ref = r_in, dr, height, d_ref
         self.n_rings = max(int(math.ceil((r_out - r_in) / dr - 1e-9)), 1)
         self.kind = WEIGHTINGS[weighting]
         self.weighting = weighting
-        self.comm = comm
+        self.reducer = reducer  # sums over the ranks (Simulation.decomp); None: one process
         self.k_n, self.omega_in = k_n, omega_in  # for 2 pi E / k'_n etc. and v_phi / (Omega R_i)
         self.samples: list[np.ndarray] = []
         self.times: list[float] = []
@@ -89,7 +89,7 @@ class RingAverager:
         """Add one sample (this rank's particles; the totals are reduced over ranks)."""
         local = np.zeros((self.n_rings, N_COLUMNS))
         accumulate(*s[:-1], self.height, self.r_in, self.dr, self.kind, local)
-        sums, scalars = reduce_sums(local, np.array([s.inner_torque]), self.comm)
+        sums, scalars = reduce_sums(local, np.array([s.inner_torque]), self.reducer)
         self.samples.append(sums)
         self.torques.append(float(scalars[0]))
         self.times.append(time)

@@ -117,14 +117,11 @@ def accumulate(x, v, omega, radius, mass, start, cn, cdelta, cf, cxi, height, r0
                 out[row, col] += w * q[col]
 
 
-def reduce_sums(local: np.ndarray, scalars: np.ndarray, comm=None):
-    """Totals over ranks of the ring sums and of a few per-sample scalars (the one place the
-    averaging talks MPI): one Allreduce per sample. Returns ``(sums, scalars)``."""
-    if comm is None or comm.Get_size() == 1:
+def reduce_sums(local: np.ndarray, scalars: np.ndarray, reducer=None):
+    """Totals over ranks of the ring sums and of a few per-sample scalars: one Allreduce per
+    sample (``reducer.sum``: the run's decomposition; None: one process). Returns
+    ``(sums, scalars)``."""
+    if reducer is None or not reducer.parallel:
         return local, scalars
-    from mpi4py import MPI
-
-    buf = np.concatenate([local.ravel(), scalars])
-    total = np.empty_like(buf)
-    comm.Allreduce(buf, total, op=MPI.SUM)
+    total = reducer.sum(np.concatenate([local.ravel(), scalars]))
     return total[:local.size].reshape(local.shape), total[local.size:]

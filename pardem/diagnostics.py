@@ -1,8 +1,10 @@
-"""Read-only measurements of the state: energies, largest overlap, per-contact table.
+"""Read-only measurements of the state: energies, the largest overlap, and the contact tables
+that output and averaging report.
 
-Stage: diagnostics and output. Nothing here changes the state; the contact table re-evaluates the
-contact law at the current (synchronous) velocities without touching the springs, so its normal
-force can differ from the one used in the last step by the damping term's half-step change.
+Stage: diagnostics and output. Nothing here changes the state. The contact tables take the
+normal and tangential forces the last force evaluation applied (``Pairs.fn``, ``ft``,
+``wall_fn``, ``wall_ft``), so they report what the step did; only the geometry (normal,
+overlap) is computed here, from the positions those forces were computed at.
 """
 
 from __future__ import annotations
@@ -12,7 +14,13 @@ import math
 import numba as nb
 import numpy as np
 
+from .contact.model import elastic_energy, history_columns
 from .jit import JIT
+from .walls import ring_surface
+
+# A contact counts as sliding when its tangential force is at the Coulomb limit: the cap sets
+# |f_t| = mu |f_n| up to rounding.
+SLIDING = 1.0 - 1e-9
 
 
 @nb.njit(**JIT)
@@ -20,16 +28,6 @@ def pair_overlap(ps, i, j):
     """Overlap (m) of disks i and j (negative when apart)."""
     return ps.radius[i] + ps.radius[j] - math.hypot(ps.x[i, 0] - ps.x[j, 0],
                                                     ps.x[i, 1] - ps.x[j, 1])
-
-
-@nb.njit(**JIT)
-def ring_overlap(ps, i, prm, r_out):
-    """Overlap (m) of disk i with the nearer flat ring surface (outer radius r_out); a ring
-    without its flat surface (Params.flat_in, flat_out) cannot overlap."""
-    r = math.hypot(ps.x[i, 0], ps.x[i, 1])
-    inner = ps.radius[i] - (r - prm.r_in) if prm.flat_in != 0.0 else -math.inf
-    outer = ps.radius[i] - (r_out - r) if prm.flat_out != 0.0 else -math.inf
-    return max(inner, outer)
 
 
 @nb.njit(**JIT)
@@ -44,30 +42,27 @@ def kinetic_energy(ps, n_move):
 
 
 @nb.njit(**JIT)
-def elastic_energy(ps, pairs, prm, n_own):
-    """Energy (J) stored in the normal and tangential springs of touching particle pairs whose
-    lower-gid partner is owned (index < n_own), so that no pair is counted on two ranks."""
+def elastic_energy_pairs(ps, pairs, prm, o, n_own):
+    """Energy (J) stored in the springs of touching particle pairs whose lower-gid partner is
+    owned (index < n_own), so that no pair is counted on two ranks."""
     e = 0.0
     for k in range(pairs.count[0]):
-        if pairs.i[k] >= n_own:
-            continue
-        d = pair_overlap(ps, pairs.i[k], pairs.j[k])
-        if d > 0.0:
-            e += 0.5 * prm.k_n * d * d
-            if pairs.xi.shape[0] > 0:
-                e += 0.5 * prm.k_t * (pairs.xi[k, 0] ** 2 + pairs.xi[k, 1] ** 2)
+        if pairs.i[k] < n_own:
+            e += elastic_energy(pair_overlap(ps, pairs.i[k], pairs.j[k]), pairs.hist, k, prm.law,
+                                o)
     return e
 
 
 @nb.njit(**JIT)
-def ring_elastic_energy(ps, pairs, prm, r_out):
-    """Energy (J) in the normal springs of contacts with the flat ring surfaces (outer radius
-    r_out at the current time)."""
+def elastic_energy_rings(ps, pairs, prm, o, r_out):
+    """Energy (J) in the springs of contacts with the flat ring surfaces (outer radius r_out
+    now)."""
     e = 0.0
     for q in range(pairs.wall_count[0]):
-        d = ring_overlap(ps, pairs.wall[q], prm, r_out)
-        if d > 0.0:
-            e += 0.5 * prm.k_n * d * d
+        i = pairs.wall[q]
+        delta = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0, r_out, 0.0,
+                             prm.rings)[3]
+        e += elastic_energy(delta, ps.hist_wall, i, prm.law, o)
     return e
 
 
@@ -83,7 +78,7 @@ def max_overlap_ratio(ps, pairs, prm, r_out):
         worst = max(worst, d / (2.0 * a))
     for q in range(pairs.wall_count[0]):
         i = pairs.wall[q]
-        d = ring_overlap(ps, i, prm, r_out)
+        d = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0, r_out, 0.0, prm.rings)[3]
         worst = max(worst, d / (2.0 * ps.radius[i]))
     return worst
 
@@ -107,77 +102,91 @@ def touching_pairs(ps, pairs, n_own):
     return out[:m]
 
 
-# A contact counts as sliding at |f_t| >= 0.999 mu |f_n|: the cap sets |f_t| = mu |f_n| with the
-# step's f_n, whose damping part used the predicted velocities; the reported f_n uses the
-# synchronous ones and differs by O(dt) in the damping term only.
-SLIDING = 0.999
+@nb.njit(**JIT)
+def touching_rings(ps, pairs, prm, r_out):
+    """``(q, ring)``: the ring candidates that touch a flat ring surface now (index into the
+    candidate list) and which ring (1 inner, 2 outer)."""
+    q_out = np.empty(pairs.wall_count[0], np.int64)
+    ring_out = np.empty(pairs.wall_count[0], np.int64)
+    m = 0
+    for q in range(pairs.wall_count[0]):
+        i = pairs.wall[q]
+        ring, _, _, delta, _, _, _, _ = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0,
+                                                     r_out, 0.0, prm.rings)
+        if ring != 0 and delta > 0.0:
+            q_out[m] = q
+            ring_out[m] = ring
+            m += 1
+    return q_out[:m], ring_out[:m]
 
 
-def contact_table(ps, pairs, prm, friction: bool, damping: bool, n_own: int,
-                  local_index: bool = False) -> dict[str, np.ndarray]:
+def _history(table: dict, hist: np.ndarray, o) -> None:
+    """The history columns of touching contacts into a contact table: ``spring`` [M,2] (m, the
+    Cundall-Strack spring xi; zeros without friction), ``displacement`` [M,2] (m, the paper's
+    total tangential displacement eta, eq. 1.3, where tracked) and ``rolling`` [M] (m, the
+    rolling spring, where on)."""
+    names = history_columns(o)
+    col = {name: c for c, name in enumerate(names)}
+    rows = len(table["normal_force"])
+    table["spring"] = (hist[:, [col["spring_x"], col["spring_y"]]].copy() if o.friction
+                       else np.zeros((rows, 2)))
+    if o.eta:
+        table["displacement"] = hist[:, [col["eta_x"], col["eta_y"]]].copy()
+    if o.rolling:
+        table["rolling"] = hist[:, col["rolling"]].copy()
+
+
+def mobilisation(normal_force: np.ndarray, tangential_force: np.ndarray, mu: float,
+                 friction: bool) -> np.ndarray:
+    """|f_t| / (mu |f_n|): 1 at the Coulomb limit (0 without friction; 1 where f_n = 0)."""
+    if not friction:
+        return np.zeros_like(normal_force)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        m = np.hypot(tangential_force[:, 0], tangential_force[:, 1]) / (mu * np.abs(normal_force))
+    return np.where(np.isfinite(m), m, 1.0)
+
+
+def contact_table(ps, pairs, prm, o, n_own: int, local_index: bool = False
+                  ) -> dict[str, np.ndarray]:
     """Touching particle pairs whose lower-gid partner is owned (index < n_own): ``ids`` [M,2]
     (gid of i < gid of j), ``normal`` [M,2] (unit, from j to i), ``overlap`` [M] (m),
-    ``normal_force`` [M] (N, on i along n), ``tangential_force`` [M,2] (N, on i), ``spring``
-    [M,2] (m, xi), ``mobilised`` [M] (|f_t|/(mu |f_n|)), ``sliding`` [M] (int32, 1 at the
-    cap). Forces on j are the negatives. ``local_index`` adds ``index`` [M,2], the pair's
-    storage indices on this rank. Where the run tracks it (history columns 2-3),
-    ``displacement`` [M,2] (m) is the paper's total tangential displacement eta (eq. 1.3), in
-    i's orientation like the spring."""
+    ``normal_force`` [M] (N, on i along n), ``tangential_force`` [M,2] (N, on i), as the last
+    step applied them; ``mobilised`` [M] (|f_t|/(mu |f_n|)), ``sliding`` [M] (int32, 1 at the
+    Coulomb limit); the history columns (``_history``), in i's orientation. Forces on j are
+    the negatives. ``local_index`` adds ``index`` [M,2], the pair's storage indices on this
+    rank. ``o``: the run's contact.model.ContactOptions."""
     k = touching_pairs(ps, pairs, n_own)
     i, j = pairs.i[k], pairs.j[k]
     d = ps.x[i] - ps.x[j]
     dist = np.hypot(d[:, 0], d[:, 1])
-    n = d / dist[:, None]
-    overlap = ps.radius[i] + ps.radius[j] - dist
-    fn = prm.k_n * overlap
-    if damping:
-        s = ps.radius[i] * ps.omega[i] + ps.radius[j] * ps.omega[j]
-        dv = ps.v[i] - ps.v[j] + s[:, None] * np.column_stack([n[:, 1], -n[:, 0]])
-        fn = fn - prm.gamma_n * np.einsum("ij,ij->i", dv, n)
-    hist = pairs.xi[k] if friction else np.zeros((k.size, 2))
-    xi = hist[:, :2]
-    with np.errstate(divide="ignore", invalid="ignore"):
-        mobilised = np.hypot(xi[:, 0], xi[:, 1]) * prm.k_t / (prm.mu * np.abs(fn))
-    mobilised = np.where(np.isfinite(mobilised), mobilised, 1.0) if friction else 0.0 * fn
-    table = {"ids": np.column_stack([ps.gid[i], ps.gid[j]]), "normal": n, "overlap": overlap,
-             "normal_force": fn, "tangential_force": -prm.k_t * xi, "spring": xi.copy(),
-             "mobilised": mobilised, "sliding": (mobilised >= SLIDING).astype(np.int32)}
-    if hist.shape[1] == 4:
-        table["displacement"] = hist[:, 2:4].copy()
+    fn, ft = pairs.fn[k], pairs.ft[k]
+    mobilised = mobilisation(fn, ft, prm.law.mu, o.friction)
+    table = {"ids": np.column_stack([ps.gid[i], ps.gid[j]]), "normal": d / dist[:, None],
+             "overlap": ps.radius[i] + ps.radius[j] - dist, "normal_force": fn.copy(),
+             "tangential_force": ft.copy(), "mobilised": mobilised,
+             "sliding": (mobilised >= SLIDING).astype(np.int32)}
+    _history(table, pairs.hist[k] if pairs.hist.shape[0] else pairs.hist, o)
     if local_index:
         table["index"] = np.column_stack([i, j])
     return table
 
 
-def ring_contact_table(ps, pairs, prm, r_out: float, r_out_rate: float, friction: bool,
-                       damping: bool) -> dict[str, np.ndarray]:
-    """Touching contacts of free particles with the flat ring surfaces: ``index`` [M] (storage
-    index), ``id`` [M], ``ring`` [M] (1 inner, 2 outer), ``normal`` [M,2] (unit, from the
-    surface to the particle), ``overlap`` [M] (m), ``normal_force`` [M] (N, along n),
-    ``tangential_force`` [M,2] (N), ``spring`` [M,2] (m), and ``displacement`` [M,2] (m, eta)
-    where tracked. Same law as the step loop, with synchronous velocities."""
-    cand = pairs.wall[: pairs.wall_count[0]]
-    x = ps.x[cand]
+def ring_contact_table(ps, pairs, prm, o, r_out: float) -> dict[str, np.ndarray]:
+    """Touching contacts of free particles with the flat ring surfaces (outer radius r_out
+    now): ``index`` [M] (storage index), ``id`` [M], ``ring`` [M] (1 inner, 2 outer),
+    ``normal`` [M,2] (unit, from the surface to the particle), ``overlap`` [M] (m),
+    ``normal_force`` [M] (N, along n), ``tangential_force`` [M,2] (N), as the last step
+    applied them, and the history columns (``_history``)."""
+    q, ring = touching_rings(ps, pairs, prm, r_out)
+    idx = pairs.wall[q]
+    x = ps.x[idx]
     r = np.hypot(x[:, 0], x[:, 1])
-    a = ps.radius[cand]
-    inner = (r - prm.r_in < a) & (prm.flat_in != 0.0)
-    outer = ~inner & (r_out - r < a) & (prm.flat_out != 0.0)
-    keep = inner | outer
-    idx, x, r, a, inner = cand[keep], x[keep], r[keep], a[keep], inner[keep]
     er = x / r[:, None]
-    n = np.where(inner[:, None], er, -er)
-    overlap = np.where(inner, a - (r - prm.r_in), a - (r_out - r))
-    fn = prm.k_n * overlap
-    if damping:
-        # normal speed of the contact point relative to the surface (the outer ring moves
-        # radially at r_out_rate; the inner ring only turns)
-        wall_v = np.where(inner[:, None], 0.0, r_out_rate * er)
-        fn = fn - prm.gamma_n * np.einsum("ij,ij->i", ps.v[idx] - wall_v, n)
-    hist = ps.xi_wall[idx] if friction else np.zeros((idx.size, 2))
-    xi = hist[:, :2]
-    table = {"index": idx, "id": ps.gid[idx], "ring": np.where(inner, 1, 2), "normal": n,
-             "overlap": overlap, "normal_force": fn, "tangential_force": -prm.k_t * xi,
-             "spring": xi.copy()}
-    if hist.shape[1] == 4:
-        table["displacement"] = hist[:, 2:4].copy()
+    inner = ring == 1
+    table = {"index": idx, "id": ps.gid[idx], "ring": ring,
+             "normal": np.where(inner[:, None], er, -er),
+             "overlap": np.where(inner, ps.radius[idx] - (r - prm.rings.r_in),
+                                 ps.radius[idx] - (r_out - r)),
+             "normal_force": pairs.wall_fn[q].copy(), "tangential_force": pairs.wall_ft[q].copy()}
+    _history(table, ps.hist_wall[idx] if ps.hist_wall.shape[0] else ps.hist_wall, o)
     return table

@@ -1,5 +1,5 @@
 """Neighbour search: cell binning + Verlet list with a skin, in canonical (lower gid, higher gid)
-order; carrying contact history from the old list to the new one.
+order, the ring-contact candidates, and the contact history carried into the new list.
 
 Stage: neighbour rebuild (called only when some body has moved more than skin/2 since the last
 build, so the list always contains every touching pair). O(N): one counting pass into cells,
@@ -16,8 +16,9 @@ import math
 import numba as nb
 import numpy as np
 
+from .contact.history import carry_history, live_history
 from .jit import JIT
-from .walls import outer_radius
+from .walls import outer_radius, ring_surface
 
 
 @nb.njit(**JIT)
@@ -153,55 +154,14 @@ def gid_order(gid, n):
 
 
 @nb.njit(**JIT)
-def carry_history(old_lo, old_hi, old_xi, gid, pi, pj, new_xi):
-    """Copy tangential histories (every column: spring, eta) from an old list, keyed by (lo, hi)
-    gids and sorted by them, to the pairs (pi, pj) of a new list (local indices, gid-sorted);
-    absent pairs start with zeros."""
-    p = 0
-    n_old = old_lo.size
-    for k in range(new_xi.shape[0]):
-        lo = gid[pi[k]]
-        hi = gid[pj[k]]
-        while p < n_old and (old_lo[p] < lo or (old_lo[p] == lo and old_hi[p] < hi)):
-            p += 1
-        found = p < n_old and old_lo[p] == lo and old_hi[p] == hi
-        for c in range(new_xi.shape[1]):
-            new_xi[k, c] = old_xi[p, c] if found else 0.0
-
-
-@nb.njit(**JIT)
-def live_springs(gid, pi, pj, xi, count):
-    """The non-zero histories of a list as ``(gid_lo, gid_hi, xi [m,hist])``, in list (key)
-    order (a pair whose columns are all zero does not touch: nothing to keep)."""
-    w = xi.shape[1]
-    live = np.zeros(count, np.bool_)
-    for k in range(count):
-        for c in range(w):
-            live[k] |= xi[k, c] != 0.0
-    m = int(live.sum())
-    lo = np.empty(m, np.int64)
-    hi = np.empty(m, np.int64)
-    out = np.empty((m, w))
-    q = 0
-    for k in range(count):
-        if live[k]:
-            lo[q] = gid[pi[k]]
-            hi[q] = gid[pj[k]]
-            out[q] = xi[k]
-            q += 1
-    return lo, hi, out
-
-
-@nb.njit(**JIT)
-def ring_candidates(x, radius, n_move, r_in, r_out, skin, flat_in, flat_out, out):
+def ring_candidates(x, radius, n_move, r_o, skin, rings, out):
     """Indices of free particles within skin of a flat ring surface that is a contact surface
-    (flat_in, flat_out: Params); returns the count (which may exceed out.size, in which case
-    the caller grows ``out`` and calls again)."""
+    (outer radius r_o now); returns the count (which may exceed out.size, in which case the
+    caller grows ``out`` and calls again)."""
     count = 0
     for i in range(n_move):
-        r = math.sqrt(x[i, 0] * x[i, 0] + x[i, 1] * x[i, 1])
-        if ((flat_in != 0.0 and r - r_in < radius[i] + skin)
-                or (flat_out != 0.0 and r_out - r < radius[i] + skin)):
+        ring = ring_surface(x[i, 0], x[i, 1], radius[i], skin, r_o, 0.0, rings)[0]
+        if ring != 0:
             if count < out.size:
                 out[count] = i
             count += 1
@@ -209,37 +169,29 @@ def ring_candidates(x, radius, n_move, r_in, r_out, skin, flat_in, flat_out, out
 
 
 @nb.njit(**JIT)
-def build_lists(ps, pairs, clock, prm, t, from_list, lo, hi, xi, friction, walls):
+def build_lists(ps, pairs, clock, prm, t, from_list, history, walls):
     """A neighbour build's lists in one compiled call (at a build, each call from Python costs
     tens of us): reference positions and outer radius for the skin test, the pair list
-    (``build_pairs``) with the springs carried over (``carry_history``; from the current list
-    if ``from_list``, else from (lo, hi, xi)), and the ring candidates (``ring_candidates``).
-    Returns ``(count, n_wall, lo, hi, xi)``. If count or n_wall exceeds the capacity of pairs,
-    the lists are unusable: grow them and call again with the returned springs."""
+    (``build_pairs``) with the history carried over (``carry_history``; from the current list
+    if ``from_list``, else from ``history`` = (lo, hi, rows)), and, with ``walls``, the ring
+    candidates (``ring_candidates``). Returns ``(count, n_wall, history)``. If count or n_wall
+    exceeds the capacity of pairs, the lists are unusable: grow them and call again with the
+    returned history."""
     if from_list:
-        lo, hi, xi = live_springs(ps.gid, pairs.i, pairs.j, pairs.xi, pairs.count[0])
+        history = live_history(ps.gid, pairs.i, pairs.j, pairs.hist, pairs.count[0])
     n = clock.n_local[0] + clock.n_ghost[0]
     n_move = clock.n_move[0]
     ps.x_ref[:n] = ps.x[:n]
-    r_out = outer_radius(t, prm)[0]
+    r_out = outer_radius(t, prm.rings)[0]
     clock.r_out_ref[0] = r_out
     count = build_pairs(ps.x, ps.radius, ps.gid, n_move, n, prm.skin, pairs.i, pairs.j)
     n_wall = 0
     if walls:
-        n_wall = ring_candidates(ps.x, ps.radius, n_move, prm.r_in, r_out, prm.skin,
-                                 prm.flat_in, prm.flat_out, pairs.wall)
+        n_wall = ring_candidates(ps.x, ps.radius, n_move, r_out, prm.skin, prm.rings, pairs.wall)
     if count <= pairs.i.size and n_wall <= pairs.wall.size:
-        if friction:
-            carry_history(lo, hi, xi, ps.gid, pairs.i, pairs.j, pairs.xi[:count])
+        if pairs.hist.shape[0] > 0:
+            carry_history(history[0], history[1], history[2], ps.gid, pairs.i, pairs.j,
+                          pairs.hist[:count])
         pairs.count[0] = count
         pairs.wall_count[0] = n_wall
-    return count, n_wall, lo, hi, xi
-
-
-def brute_force_pairs(x: np.ndarray, radius: np.ndarray, gid: np.ndarray, kind: np.ndarray,
-                      skin: float) -> set[tuple[int, int]]:
-    """Reference O(N^2) search (tests only): the set of (gid_lo, gid_hi) within a+a'+skin."""
-    d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=-1)
-    cut = radius[:, None] + radius[None, :] + skin
-    ii, jj = np.nonzero((d < cut) & (gid[:, None] < gid[None, :]))
-    return {(int(gid[i]), int(gid[j])) for i, j in zip(ii, jj) if kind[i] == 0 or kind[j] == 0}
+    return count, n_wall, history

@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .scene import Scene, SceneError
-from .state import FREE, INNER_WALL, OUTER_WALL
+from .state import FREE, INNER_WALL, OUTER_WALL, Particles, new_particles
 from .walls import wall_disk_angles, wall_layout
 
 
@@ -118,3 +118,22 @@ def _triangular(r_lo: float, r_hi: float, s: float) -> np.ndarray:
     r = np.hypot(px, py)
     keep = (r >= r_lo) & (r <= r_hi)
     return np.column_stack([px[keep], py[keep]])
+
+
+def whole_cell(init: Initial, hist: int) -> Particles:
+    """The particle arrays of the whole cell in gid order (every rank builds them, then keeps
+    its share), with ``hist`` history columns for the ring contacts (0: none)."""
+    n = init.radius.size
+    ps = new_particles(n, hist)
+    ps.gid[:] = np.arange(n)
+    ps.kind[:] = init.kind
+    ps.x[:] = init.x
+    ps.v[:] = init.v
+    ps.omega[:] = init.omega
+    ps.radius[:] = init.radius
+    ps.mass[:] = init.mass
+    ps.inv_mass[:] = 1.0 / init.mass
+    ps.inv_inertia[:] = 2.0 / (init.mass * init.radius**2)  # I = m d^2 / 8
+    ps.phi0[:] = init.phi0
+    ps.e0[:] = np.column_stack([np.cos(init.phi0), np.sin(init.phi0)])
+    return ps

@@ -2,6 +2,7 @@
 
 Stage: input. ``load_scene`` reads a TOML scene file (layout and key names fixed by SPEC §7) and
 returns a ``Scene`` made of frozen, validated dataclasses; nothing downstream re-checks them.
+The checks are in ``schema.py`` (``scene_from_dict``; free particles in ``particles_input.py``).
 Every problem raises ``SceneError`` with one message naming the offending ``[table] key``.
 ``scene_to_toml`` / ``write_scene`` write a scene back (the resolved scene stored with a run).
 Units are SI throughout: m, kg, s, rad, N.
@@ -119,7 +120,9 @@ class FreeParticles:
 class Contact:
     """``[contact]``: k_n (N/m, 352.1), gamma_n (kg/s, 0.19), k_t (N/m, 267.1), mu (0.44),
     mu_bottom (2e-5), gravity (m/s^2, 9.81; bottom friction only), height (m, disk height h,
-    6e-3)."""
+    6e-3); the optional slots' parameters: gamma_t (kg/s, tangential viscous damping, 0),
+    k_r (N/m, rolling spring, 0), mu_r (rolling resistance's Coulomb-type coefficient, 0),
+    each allowed only with its [effects] switch."""
 
     k_n: float = 352.1
     gamma_n: float = 0.19
@@ -128,19 +131,27 @@ class Contact:
     mu_bottom: float = 2e-5
     gravity: float = 9.81
     height: float = 6e-3
+    gamma_t: float = 0.0
+    k_r: float = 0.0
+    mu_r: float = 0.0
 
 
 @dataclass(frozen=True)
 class Effects:
     """``[effects]`` (booleans, same defaults for both kinds): normal_damping (true),
     tangential_friction (true), rotation (true), bottom_friction (true),
-    clip_attractive_normal (false)."""
+    clip_attractive_normal (false), tangential_damping (false: a viscous tangential force
+    -gamma_t v_t, with [contact] gamma_t), rolling_resistance (false: a rolling spring k_r with
+    its limit mu_r |f_n|, with [contact] k_r and mu_r). An effect that is off is compiled out
+    of the step loop (contact.model)."""
 
     normal_damping: bool = True
     tangential_friction: bool = True
     rotation: bool = True
     bottom_friction: bool = True
     clip_attractive_normal: bool = False
+    tangential_damping: bool = False
+    rolling_resistance: bool = False
 
 
 @dataclass(frozen=True)
@@ -255,392 +266,27 @@ class Scene:
     def fingerprint(self) -> str:
         """sha256 hex of the physics: to_dict() without scene.name, time.end, [output] and
         [averaging], which may legitimately change on a restart, and without keys added since
-        the first release while they hold their default (time.integrator, the per-ring wall
-        layout keys of [geometry])."""
+        the first release while they hold their default (``_LATER``), so that older
+        checkpoints stay restartable."""
         d = self.to_dict()
         d["scene"].pop("name")
         d["time"].pop("end")
-        if d["time"]["integrator"] == "verlet":  # keys added later hash only when not default,
-            d["time"].pop("integrator")          # so older checkpoints stay restartable
-        for key, default in _LATER_GEOMETRY.items():
-            if "geometry" in d and d["geometry"][key] == default:
-                d["geometry"].pop(key)
+        for (table, key), default in _LATER.items():
+            if table in d and d[table][key] == default:
+                d[table].pop(key)
         d.pop("output")
         d.pop("averaging", None)
         text = json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
         return hashlib.sha256(text.encode()).hexdigest()
 
 
-_LATER_GEOMETRY = {f"{ring}_{key}": default for ring in ("inner", "outer") for key, default in
-                   (("wall_count", "auto"), ("wall_diameter", "auto"), ("flat_surface", True))}
-"""[geometry] keys added after the first release, with their defaults (see fingerprint)."""
-
-# ---------------------------------------------------------------- schema and value checks
-
-_REQ = object()  # marks a required key
-_F, _I, _B, _S, _A, _IA = "float", "int", "bool", "str", "auto", "int-auto"
-
-
-def _schema(cls: type, spec: dict[str, tuple[str, str, str]],
-            defaults: dict[str, Any] | None = None) -> dict[str, tuple[str, Any, str, str]]:
-    """key -> (kind, default, unit, rule); defaults come from the dataclass (single source)."""
-    dflt = {f.name: _REQ if f.default is MISSING else f.default for f in dataclasses.fields(cls)}
-    dflt.update(defaults or {})
-    return {k: (kind, dflt[k], unit, rule) for k, (kind, unit, rule) in spec.items()}
-
-
-_TABLES: dict[str, dict[str, tuple[str, Any, str, str]]] = {
-    "scene": _schema(SceneInfo, {"name": (_S, "", ""), "kind": (_S, "", "couette|free"),
-                                 "seed": (_I, "", ">=0")}, {"name": None}),
-    "geometry": _schema(Geometry, {
-        "inner_radius": (_F, "m", ">0"), "outer_radius": (_F, "m", ""),
-        "outer_start_radius": (_F, "m", ""), "compression_time": (_F, "s", ">=0"),
-        "omega_inner": (_F, "rad/s", ""), "wall_particle_diameter": (_F, "m", ">0"),
-        "wall_particle_spacing": (_F, "m", ">0"),
-        **{f"{ring}_{key}": spec for ring in ("inner", "outer") for key, spec in (
-            ("wall_count", (_IA, "", ">=0")), ("wall_diameter", (_A, "m", ">0")),
-            ("flat_surface", (_B, "", "")))}}),
-    "species": _schema(Species, {"name": (_S, "", ""), "diameter": (_F, "m", ">0"),
-                                 "mass": (_F, "kg", ">0"), "count": (_I, "", ">=0")}),
-    "contact": _schema(Contact, {
-        "k_n": (_F, "N/m", ">0"), "gamma_n": (_F, "kg/s", ">=0"), "k_t": (_F, "N/m", ">=0"),
-        "mu": (_F, "", ">=0"), "mu_bottom": (_F, "", ">=0"), "gravity": (_F, "m/s^2", ">0"),
-        "height": (_F, "m", ">0")}),
-    "effects": _schema(Effects, {f.name: (_B, "", "") for f in dataclasses.fields(Effects)}),
-    "time": _schema(TimeCfg, {"dt": (_A, "s", ">0"), "dt_per_contact": (_F, "", ">=5"),
-                              "end": (_F, "s", ">0"),
-                              "integrator": (_S, "", "verlet|verlet-halfstep")}),
-    "neighbors": _schema(Neighbors, {"skin": (_A, "m", ">0")}),
-    "output": _schema(OutputCfg, {"snapshot_interval": (_F, "s", ">0"),
-                                  "checkpoint_interval": (_F, "s", ">0"),
-                                  "contacts": (_B, "", "")}),
-    "averaging": _schema(AveragingCfg, {
-        "start": (_F, "s", ">=0"), "end": (_F, "s", ""), "sample_interval": (_F, "s", ">0"),
-        "ring_width": (_F, "m", ">0"), "weighting": (_S, "", "slice|exact|centre|gaussian"),
-        "reference_diameter": (_A, "m", ">0"), "displacement": (_S, "", "eta|spring")}),
-}
-_TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "contact", "effects",
-             "time", "neighbors", "output", "averaging")
-_PDEFAULT = {"vx": 0.0, "vy": 0.0, "omega": 0.0}
-
-
-def _show(v: Any) -> str:
-    """A value as the message shows it (TOML spelling for booleans)."""
-    if isinstance(v, (bool, np.bool_)):
-        return "true" if v else "false"
-    if isinstance(v, numbers.Integral):
-        return str(int(v))
-    if isinstance(v, numbers.Real):
-        return repr(float(v))
-    return repr(v)
-
-
-def _is_num(v: Any) -> bool:
-    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
-
-
-def _value(label: str, key: str, v: Any, kind: str, unit: str) -> Any:
-    """Type-check one value; ints become floats where floats are expected, "auto" -> None."""
-    u = f" ({unit})" if unit else ""
-    head = f"{label} {key} = {_show(v)}:"
-    if kind == _B:
-        if isinstance(v, (bool, np.bool_)):
-            return bool(v)
-        raise SceneError(f"{head} expected a boolean (true or false)")
-    if kind == _S:
-        if isinstance(v, str):
-            return v
-        raise SceneError(f"{head} expected a string")
-    if kind == _I:
-        if isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)):
-            return int(v)
-        raise SceneError(f"{head} expected an integer{u}")
-    if kind in (_A, _IA) and isinstance(v, str) and v == "auto":
-        return None
-    if kind == _IA:
-        if isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)):
-            return int(v)
-        raise SceneError(f'{head} expected an integer or "auto"{u}')
-    if not _is_num(v):
-        raise SceneError(f"{head} expected a number{u}" + (' or "auto"' if kind == _A else ""))
-    if not math.isfinite(float(v)):
-        raise SceneError(f"{head} must be finite{u}")
-    return float(v)
-
-
-def _rule_ok(v: Any, rule: str) -> tuple[bool, str]:
-    if "|" in rule:
-        opts = rule.split("|")
-        return v in opts, "must be one of " + ", ".join(repr(o) for o in opts)
-    op, bound = (">=", rule[2:]) if rule.startswith(">=") else (">", rule[1:])
-    return (v >= float(bound) if op == ">=" else v > float(bound)), f"must be {op} {bound}"
-
-
-def _fail(label: str, key: str, v: Any, why: str, unit: str = "") -> SceneError:
-    return SceneError(f"{label} {key} = {_show(v)}: {why}" + (f" ({unit})" if unit else ""))
-
-
-def _parse(raw: Any, table: str, label: str) -> dict[str, Any]:
-    """Check one table against its schema; returns every key with defaults filled in."""
-    if not isinstance(raw, dict):
-        raise SceneError(f"{label}: expected a table, got {_show(raw)}")
-    schema = _TABLES[table]
-    for key in raw:
-        if key not in schema:
-            raise SceneError(f"{label} unknown key {key!r}; allowed: {', '.join(schema)}")
-    out: dict[str, Any] = {}
-    for key, (kind, default, unit, rule) in schema.items():
-        if key not in raw:
-            if default is _REQ:
-                raise SceneError(f"{label} {key}: missing (required)")
-            out[key] = default
-            continue
-        v = out[key] = _value(label, key, raw[key], kind, unit)
-        if rule and v is not None:
-            ok, why = _rule_ok(v, rule)
-            if not ok:
-                raise _fail(label, key, raw[key], why, unit)
-    return out
-
-
-def _table_list(raw: Any, name: str) -> list[Any]:
-    if not isinstance(raw, list) or not raw:
-        raise SceneError(f"[[{name}]]: expected a non-empty array of tables")
-    return raw
-
-
-# ---------------------------------------------------------------- free particles
-
-def _particles_from_tables(rows: list[Any]) -> dict[str, np.ndarray]:
-    """Columns from ``[[particles]]`` tables; vectorised type checks keep 1e5 rows fast."""
-    for i, r in enumerate(rows):
-        if not isinstance(r, dict):
-            raise SceneError(f"[[particles]] #{i}: expected a table, got {_show(r)}")
-        extra = r.keys() - _PUNITS.keys()
-        if extra:
-            raise SceneError(f"[[particles]] #{i} unknown key {min(extra)!r}; "
-                             f"allowed: {', '.join(_PCOLS)}")
-    cols = {}
-    for k in _PCOLS:
-        dflt = _PDEFAULT.get(k, _REQ)
-        vals = [r.get(k, dflt) for r in rows]
-        if {type(v) for v in vals} <= {float, int, np.float64}:
-            cols[k] = np.array(vals, dtype=np.float64)
-            continue
-        for i, v in enumerate(vals):  # slow path only to name the first bad row
-            if v is _REQ:
-                raise SceneError(f"[[particles]] #{i} {k}: missing (required)")
-            _value(f"[[particles]] #{i}", k, v, _F, _PUNITS[k])
-        cols[k] = np.array(vals, dtype=np.float64)
-    return cols
-
-
-def _particles_from_file(name: Any, base_dir: Path) -> dict[str, np.ndarray]:
-    if not isinstance(name, str):
-        raise SceneError(f"particles_file = {_show(name)}: expected a file name (.csv or .h5)")
-    path = base_dir / name
-    label = f"particles_file = {name!r}"
-    if not path.is_file():
-        raise SceneError(f"{label}: no such file {str(path)!r}")
-    cols: dict[str, np.ndarray] = {}
-    if path.suffix.lower() == ".csv":
-        lines = [ln for ln in path.read_text().splitlines() if ln.strip()]
-        if len(lines) < 2:
-            raise SceneError(f"{label}: expected a header row and at least one particle row")
-        header = [h.strip() for h in lines[0].split(",")]
-        try:
-            data = np.loadtxt(lines[1:], delimiter=",", dtype=np.float64, ndmin=2)
-        except ValueError as e:
-            raise SceneError(f"{label}: unreadable CSV data: {e}") from None
-        if data.shape[1] != len(header):
-            raise SceneError(f"{label}: {data.shape[1]} columns but {len(header)} header names")
-        cols = {h: data[:, j] for j, h in enumerate(header)}
-    elif path.suffix.lower() in (".h5", ".hdf5"):
-        import h5py  # only free scenes with HDF5 input pay for the import
-
-        with h5py.File(path, "r") as f:
-            for k, ds in f.items():
-                if not isinstance(ds, h5py.Dataset) or ds.ndim != 1:
-                    raise SceneError(f"{label}: {k!r} must be a 1-D dataset at the file root")
-                cols[k] = np.asarray(ds[()], dtype=np.float64)
-    else:
-        raise SceneError(f"{label}: expected a .csv or .h5 file")
-    for k in cols:
-        if k not in _PUNITS:
-            raise SceneError(f"{label}: unknown column {k!r}; allowed: {', '.join(_PCOLS)}")
-    lengths = {len(c) for c in cols.values()}
-    if len(lengths) > 1:
-        raise SceneError(f"{label}: columns have different lengths {sorted(lengths)}")
-    n = lengths.pop() if lengths else 0
-    for k in _PCOLS:
-        if k not in cols:
-            if k not in _PDEFAULT:
-                raise SceneError(f"{label}: required column {k!r} missing")
-            cols[k] = np.full(n, _PDEFAULT[k])
-    return cols
-
-
-def _check_particles(cols: dict[str, np.ndarray], where: str) -> FreeParticles:
-    """Finite values, positive diameter and mass, N >= 1, no coincident or deep overlaps."""
-    n = len(cols["x"])
-    if n == 0:
-        raise SceneError(f"{where}: a free scene needs at least one particle")
-    for k in _PCOLS:
-        bad = ~np.isfinite(cols[k])
-        if k in ("diameter", "mass"):
-            bad |= ~(cols[k] > 0)
-        if bad.any():
-            i = int(np.argmax(bad))
-            why = "must be > 0" if k in ("diameter", "mass") else "must be finite"
-            raise _fail(f"{where} #{i}", k, cols[k][i], why, _PUNITS[k])
-    x, y, d = cols["x"], cols["y"], cols["diameter"]
-    pair = _worst_pair(x, y, d)
-    if pair is not None:
-        i, j = pair
-        if x[i] == x[j] and y[i] == y[j]:
-            raise SceneError(f"{where} #{i} and #{j}: identical positions ({x[i]!r}, {y[i]!r})")
-        ov = 0.5 * (d[i] + d[j]) - math.hypot(x[i] - x[j], y[i] - y[j])
-        raise SceneError(f"{where} #{i} and #{j} overlap by {ov:.3g} m = "
-                         f"{100 * ov / min(d[i], d[j]):.3g}% of the smaller diameter "
-                         "(at most 1% allowed)")
-    return FreeParticles(**{k: cols[k] for k in _PCOLS})
-
-
-def _worst_pair(x: np.ndarray, y: np.ndarray, d: np.ndarray) -> tuple[int, int] | None:
-    """An (i, j), i < j, overlapping by > 1% of the smaller diameter, or None. Cell grid of side
-    max(d), so only the 3x3 neighbourhood can overlap: O(N log N) while sizes are comparable."""
-    n = x.size
-    if n < 2:
-        return None
-    h = float(d.max())
-    cx = np.floor((x - x.min()) / h).astype(np.int64)
-    cy = np.floor((y - y.min()) / h).astype(np.int64) + 1  # +1: offset dcy = -1 stays >= 0
-    ny = int(cy.max()) + 2
-    if cx.max() >= 2**30 or ny >= 2**30:
-        raise SceneError("[[particles]]: positions spread over more than 1e9 diameters")
-    key = cx * ny + cy
-    order = np.argsort(key, kind="stable")
-    ks = key[order]
-    rank = np.empty(n, np.int64)
-    rank[order] = np.arange(n)
-    for dcx, dcy in ((0, 0), (1, -1), (1, 0), (1, 1), (0, 1)):  # half stencil: each pair once
-        nk = key + dcx * ny + dcy
-        start = rank + 1 if dcx == dcy == 0 else np.searchsorted(ks, nk, "left")
-        stop = np.searchsorted(ks, nk, "right")
-        m = 0
-        while True:
-            pos = start + m
-            live = np.nonzero(pos < stop)[0]
-            if live.size == 0:
-                break
-            j = order[pos[live]]
-            dist = np.hypot(x[live] - x[j], y[live] - y[j])
-            ov = 0.5 * (d[live] + d[j]) - dist
-            hit = (ov > 0.01 * np.minimum(d[live], d[j])) | (dist == 0)
-            if hit.any():  # stop at the first hits: a heap of coincident disks stays cheap
-                return min((min(a, b), max(a, b))
-                           for a, b in zip(live[hit].tolist(), j[hit].tolist()))
-            m += 1
-    return None
-
-
-# ---------------------------------------------------------------- scene assembly
-
-def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
-                    source: str | None = None) -> Scene:
-    """Validate a dict in the TOML layout (as tomllib returns it) and build a Scene.
-    ``base_dir`` resolves a relative ``particles_file``."""
-    if not isinstance(d, dict):
-        raise SceneError(f"scene: expected a table, got {_show(d)}")
-    for key in d:
-        if key not in _TOP_KEYS:
-            raise SceneError(f"unknown top-level table or key {key!r}; allowed: "
-                             f"{', '.join(_TOP_KEYS)}")
-    if "scene" not in d:
-        raise SceneError('[scene] table missing (required, with kind = "couette" or "free")')
-    info = _parse(d["scene"], "scene", "[scene]")
-    if info["name"] is None:
-        info["name"] = Path(source).stem if source else "scene"
-    kind = info["kind"]
-    opt = {t: _parse(d.get(t, {}), t, f"[{t}]")
-           for t in ("contact", "effects", "time", "neighbors", "output")}
-    c, e = opt["contact"], opt["effects"]
-    if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
-        raise _fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
-                    "tangential_friction is on and mu > 0", "N/m")
-    averaging = None
-    if "averaging" in d:
-        a = _parse(d["averaging"], "averaging", "[averaging]")
-        if not a["end"] > a["start"]:
-            raise _fail("[averaging]", "end", a["end"], f"must be > start = {a['start']!r}", "s")
-        averaging = AveragingCfg(**a)
-    geometry, species, particles = None, (), None
-    if kind == "couette":
-        if "particles" in d or "particles_file" in d:
-            which = "[[particles]]" if "particles" in d else "particles_file"
-            raise SceneError(f"{which}: not allowed in a couette scene (particles are placed "
-                             "randomly from [[species]])")
-        if "species" not in d:
-            raise SceneError("[[species]] missing: a couette scene needs at least one species")
-        species = _species(_table_list(d["species"], "species"))
-        geometry = _geometry(_parse(d.get("geometry", {}), "geometry", "[geometry]"), species)
-    else:
-        for t in ("species", "geometry"):
-            if t in d:
-                name = "[[species]]" if t == "species" else "[geometry]"
-                raise SceneError(f"{name}: not allowed in a free scene (explicit particles, "
-                                 "no rings)")
-        if "particles" in d and "particles_file" in d:
-            raise SceneError("[[particles]] and particles_file: give one or the other, not both")
-        if "particles" in d:
-            cols = _particles_from_tables(_table_list(d["particles"], "particles"))
-            particles = _check_particles(cols, "[[particles]]")
-        elif "particles_file" in d:
-            cols = _particles_from_file(d["particles_file"], Path(base_dir))
-            particles = _check_particles(cols, f"particles_file = {d['particles_file']!r} row")
-        else:
-            raise SceneError("[[particles]] missing: a free scene needs [[particles]] tables "
-                             "or particles_file")
-    return Scene(SceneInfo(**info), geometry, species, particles, Contact(**c), Effects(**e),
-                 TimeCfg(**opt["time"]), Neighbors(**opt["neighbors"]),
-                 OutputCfg(**opt["output"]), averaging, source)
-
-
-def _species(rows: list[Any]) -> tuple[Species, ...]:
-    out = tuple(Species(**_parse(r, "species", f"[[species]] #{i}")) for i, r in enumerate(rows))
-    seen: set[str] = set()
-    for i, s in enumerate(out):
-        if s.name in seen:
-            raise _fail(f"[[species]] #{i}", "name", s.name, "duplicate species name")
-        seen.add(s.name)
-    if sum(s.count for s in out) < 1:
-        raise SceneError("[[species]] count: total count must be >= 1")
-    return out
-
-
-def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
-    ri, ro = g["inner_radius"], g["outer_radius"]
-    if not ro > ri:
-        raise _fail("[geometry]", "outer_radius", ro,
-                    f"must be > inner_radius = {ri!r} (R_o <= R_i)", "m")
-    if g["outer_start_radius"] < ro:
-        raise _fail("[geometry]", "outer_start_radius", g["outer_start_radius"],
-                    f"outer start radius below the final radius outer_radius = {ro!r}", "m")
-    big = max(species, key=lambda s: s.diameter)
-    if not ro - ri > big.diameter:
-        raise SceneError(f"[geometry] outer_radius - inner_radius = {ro - ri:.6g} m: the annulus "
-                         f"gap must be larger than the largest diameter {big.diameter!r} m "
-                         f"([[species]] {big.name!r})")
-    geometry = Geometry(**g)
-    from .walls import check_layout  # walls builds on scene types; imported here, not at the top
-
-    small = min(s.diameter for s in species if s.count > 0)
-    for ring in ("inner", "outer"):
-        why = check_layout(geometry, ring, small)
-        if why is not None:
-            key, value, text = why
-            raise _fail("[geometry]", key, value, text)
-    return geometry
+_LATER = {("time", "integrator"): "verlet",
+          **{("geometry", f"{ring}_{key}"): default for ring in ("inner", "outer")
+             for key, default in (("wall_count", "auto"), ("wall_diameter", "auto"),
+                                  ("flat_surface", True))},
+          ("effects", "tangential_damping"): False, ("effects", "rolling_resistance"): False,
+          ("contact", "gamma_t"): 0.0, ("contact", "k_r"): 0.0, ("contact", "mu_r"): 0.0}
+"""Keys added after the first release, with their defaults (see Scene.fingerprint)."""
 
 
 def load_scene(path: str | Path) -> Scene:
@@ -696,3 +342,6 @@ def write_scene(scene: Scene, path: str | Path) -> None:
     tmp = p.with_name(p.name + ".tmp")
     tmp.write_text(scene_to_toml(scene), encoding="utf-8")
     os.replace(tmp, p)
+
+
+from .schema import scene_from_dict  # noqa: E402  (the checks build on the types above)

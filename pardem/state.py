@@ -1,5 +1,5 @@
-"""Struct-of-arrays state: the particle arrays, the pair list with its contact history, the
-scalar parameters of a scene, and the clock.
+"""Struct-of-arrays state: the particle arrays, the pair list with its contact history and the
+forces it applied, the scalar parameters of a scene, and the clock.
 
 Stage: data. Every compiled kernel reads and writes these arrays in place; nothing here allocates
 during a step. Units are SI throughout.
@@ -10,23 +10,28 @@ Layout invariants
   so "sum a particle's contacts in gid order" also fixes where wall contacts fall in the sum.
 - The pair list holds candidate pairs (Verlet list) in canonical order: sorted by
   (lower gid, higher gid), with ``i`` the lower-gid partner. Only touching pairs contribute.
-- ``xi`` (tangential history, m) is stored per pair, aligned with the pair list, with
-  ``hist`` columns: 0 without tangential friction (zero rows: no history storage), 2 for the
-  Cundall-Strack spring, 4 when the paper's total tangential displacement eta (eq. 1.3) is
-  tracked too (columns 2-3; bookkeeping for averaging and output, never a force). See
-  ``history_width``.
+- ``hist`` (the contact history, m) is stored per pair, aligned with the pair list, with the
+  columns of the scene's contact model (contact.model.history_columns: spring, rolling
+  spring, eta); a model without history stores zero rows.
+- ``fn``, ``ft`` per pair (and ``wall_fn``, ``wall_ft`` per ring candidate) are the normal and
+  tangential forces the last force evaluation applied: output and averaging read them, so they
+  report what the step did (no second evaluation of the law).
 """
 
 from __future__ import annotations
 
 import functools
-from typing import NamedTuple
+from typing import TYPE_CHECKING, NamedTuple
 
 import numba as nb
 import numpy as np
 from numba import literal_unroll
 
 from .jit import JIT
+
+if TYPE_CHECKING:
+    from .contact.model import LawParams
+    from .walls import Rings
 
 FREE, INNER_WALL, OUTER_WALL = 0, 1, 2
 """Values of ``Particles.kind``."""
@@ -46,9 +51,8 @@ class Particles(NamedTuple):
     v(t+dt) ~ v(t+dt/2) + dt/2 a(t); the velocity-dependent forces (damping, tangential
     spring) use them, which makes the contact velocity second-order accurate in dt.
     x_ref [n,2] (m): positions at the last neighbour-list build (skin bookkeeping).
-    xi_wall [n,hist] (m): tangential history (spring, then eta if tracked) of the contact with
-    a flat ring surface (a disk cannot touch both rings, so one slot suffices); zero rows
-    without tangential friction.
+    hist_wall [n,w] (m): history of the contact with a flat ring surface (the pair history's
+    columns; a disk cannot touch both rings, so one row suffices); zero rows without history.
     """
 
     gid: np.ndarray
@@ -68,52 +72,44 @@ class Particles(NamedTuple):
     v_pred: np.ndarray
     w_pred: np.ndarray
     x_ref: np.ndarray
-    xi_wall: np.ndarray
+    hist_wall: np.ndarray
 
 
 class Pairs(NamedTuple):
     """Verlet pair list with capacity; ``count[0]`` pairs are valid.
 
-    i, j [cap] int32: local indices, gid[i] < gid[j]. xi [cap,hist] (m): tangential springs,
-    then eta if tracked (zero rows without friction). wall [capw] int32, wall_count[0]: free
-    particles near a flat ring surface (candidates for flat-wall contacts).
+    i, j [cap] int32: local indices, gid[i] < gid[j]. hist [cap,w] (m): contact history
+    (zero rows without one). fn [cap] (N), ft [cap,2] (N): normal force along n and tangential
+    force on i applied at the last force evaluation (0 for pairs that do not touch).
+    wall [capw] int32, wall_count[0]: free particles near a flat ring surface (candidates for
+    flat-wall contacts); wall_fn [capw], wall_ft [capw,2]: their applied forces (N).
     """
 
     i: np.ndarray
     j: np.ndarray
-    xi: np.ndarray
+    hist: np.ndarray
     count: np.ndarray
     wall: np.ndarray
     wall_count: np.ndarray
+    fn: np.ndarray
+    ft: np.ndarray
+    wall_fn: np.ndarray
+    wall_ft: np.ndarray
 
 
 class Params(NamedTuple):
-    """Scalar parameters of a scene (all float64, SI).
+    """Parameters of a run: ``law`` (contact.model.LawParams: the material), ``rings``
+    (walls.Rings: the geometry and motion of the rings), and the run's own: dt (s), skin (m,
+    Verlet skin), mu_b_g = mu_bottom g (m/s^2, bottom friction), escape_radius (m: a particle
+    farther than this from the axis is an error; free scenes: inf; Couette scenes check
+    against the rings' current radii instead)."""
 
-    dt (s); k_n (N/m); gamma_n (kg/s); k_t (N/m); mu; mu_b_g = mu_bottom * g (m/s^2);
-    r_in (m) inner ring radius; omega_in (rad/s); r_out (m) final outer radius; r_out0 (m)
-    outer radius at t = 0; t_comp (s) compression time; skin (m) Verlet skin;
-    escape_radius (m): a particle farther than this from the axis is an error (free scenes:
-    inf; Couette scenes check against the rings' current radii instead).
-    flat_in, flat_out: 1.0 where the inner / outer flat ring surface is a contact surface,
-    0.0 where only its wall disks are (walls.WallLayout.flat).
-    """
-
+    law: LawParams
+    rings: Rings
     dt: float
-    k_n: float
-    gamma_n: float
-    k_t: float
-    mu: float
-    mu_b_g: float
-    r_in: float
-    omega_in: float
-    r_out: float
-    r_out0: float
-    t_comp: float
     skin: float
+    mu_b_g: float
     escape_radius: float
-    flat_in: float = 1.0
-    flat_out: float = 1.0
 
 
 class Clock(NamedTuple):
@@ -143,23 +139,14 @@ class Clock(NamedTuple):
     disp: np.ndarray
 
 
-NO_SPRINGS = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
-"""An empty contact history (gid_lo, gid_hi, xi)."""
-
-
-def history_width(friction: bool, eta: bool) -> int:
-    """Columns of the tangential history: 0 without friction, 2 (spring), 4 (spring, eta)."""
-    return 0 if not friction else (4 if eta else 2)
-
-
 def new_particles(n: int, hist: int) -> Particles:
-    """Zeroed particle arrays for n particles with ``hist`` history columns (history_width)."""
+    """Zeroed particle arrays for n particles with ``hist`` history columns (0: none)."""
     z = np.zeros
     return Particles(
         gid=z(n, np.int64), kind=z(n, np.int8), x=z((n, 2)), v=z((n, 2)), theta=z(n),
         omega=z(n), f=z((n, 2)), tau=z(n), radius=z(n), mass=z(n), inv_mass=z(n),
         inv_inertia=z(n), phi0=z(n), e0=z((n, 2)), v_pred=z((n, 2)), w_pred=z(n),
-        x_ref=z((n, 2)), xi_wall=z((n if hist else 0, max(hist, 2))),
+        x_ref=z((n, 2)), hist_wall=z((n if hist else 0, max(hist, 2))),
     )
 
 
@@ -167,8 +154,10 @@ def new_pairs(capacity: int, wall_capacity: int, hist: int) -> Pairs:
     """Empty pair list with the given capacities and ``hist`` history columns."""
     return Pairs(
         i=np.zeros(capacity, np.int32), j=np.zeros(capacity, np.int32),
-        xi=np.zeros((capacity if hist else 0, max(hist, 2))), count=np.zeros(1, np.int64),
+        hist=np.zeros((capacity if hist else 0, max(hist, 2))), count=np.zeros(1, np.int64),
         wall=np.zeros(wall_capacity, np.int32), wall_count=np.zeros(1, np.int64),
+        fn=np.zeros(capacity), ft=np.zeros((capacity, 2)), wall_fn=np.zeros(wall_capacity),
+        wall_ft=np.zeros((wall_capacity, 2)),
     )
 
 
@@ -183,8 +172,8 @@ def new_clock(n_move: int, n_local: int, r_out0: float) -> Clock:
 
 
 def particle_fields(hist: int) -> tuple[str, ...]:
-    """Names of the per-particle arrays (``xi_wall`` only with a tangential history)."""
-    return tuple(k for k in Particles._fields if hist or k != "xi_wall")
+    """Names of the per-particle arrays (``hist_wall`` only with a contact history)."""
+    return tuple(k for k in Particles._fields if hist or k != "hist_wall")
 
 
 def join_rows(parts: list[dict[str, np.ndarray]]) -> dict[str, np.ndarray]:
@@ -221,7 +210,7 @@ def packed(ps: Particles, idx: np.ndarray, hist: int) -> np.ndarray:
 @nb.njit(**JIT)
 def pack_particles(ps, idx, out):
     """out[r] = row idx[r] of every array of ps (integer ids and kinds are exact in float64
-    below 2**53). Arrays with no rows (xi_wall without friction) are skipped."""
+    below 2**53). Arrays with no rows (hist_wall without a history) are skipped."""
     c = 0
     for a in literal_unroll(ps):
         if a.shape[0] > 0:

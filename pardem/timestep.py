@@ -1,8 +1,6 @@
-"""Time step from the analytic contact time of the linear spring-dashpot (SPEC §3).
-
-Head-on, without friction: omega_0^2 = k_n/m_red, eta = gamma_n/(2 m_red),
-omega = sqrt(omega_0^2 - eta^2), contact time t_c = pi/omega, restitution e_n = exp(-pi eta/omega).
-The default step is t_c(smallest pair) / dt_per_contact; a step above t_c/5 is refused.
+"""Time step from the analytic contact time of the linear spring-dashpot (SPEC §3;
+contact.model.contact_time). The default step is t_c(smallest pair) / dt_per_contact; a step
+above t_c/5 is refused.
 
 The linear spring resolves a contact in time independently of the impact speed, but the overlap
 grows with it: a disk hit head-on by a wall moving at v overlaps it by up to v/omega_0 (omega_0
@@ -17,29 +15,17 @@ import math
 
 import numpy as np
 
+from .contact import model
 from .scene import Scene, SceneError
 
 
-def _omega(k_n: float, gamma_n: float, m_red: float) -> float:
-    """Damped angular frequency (rad/s); SceneError when the contact is overdamped."""
-    eta = gamma_n / (2.0 * m_red)
-    w2 = k_n / m_red - eta * eta
-    if not w2 > 0:
-        raise SceneError(
-            f"[contact] gamma_n = {gamma_n!r}: overdamped for reduced mass {m_red:.4g} kg "
-            f"(gamma_n/(2 m_red) = {eta:.4g} 1/s >= sqrt(k_n/m_red) = "
-            f"{math.sqrt(k_n / m_red):.4g} 1/s); a contact never ends, so there is no t_c (kg/s)")
-    return math.sqrt(w2)
-
-
 def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
-    """t_c = pi/omega (s) for spring k_n (N/m), damping gamma_n (kg/s), reduced mass m_red (kg)."""
-    return math.pi / _omega(k_n, gamma_n, m_red)
-
-
-def restitution(k_n: float, gamma_n: float, m_red: float) -> float:
-    """Normal restitution e_n = exp(-pi eta/omega) (dimensionless), eta = gamma_n/(2 m_red)."""
-    return math.exp(-math.pi * gamma_n / (2.0 * m_red) / _omega(k_n, gamma_n, m_red))
+    """t_c (s) of the damped normal spring; SceneError when the contact is overdamped."""
+    try:
+        return model.contact_time(k_n, gamma_n, m_red)
+    except ValueError as e:
+        raise SceneError(f"[contact] gamma_n = {gamma_n!r}: {e} for reduced mass {m_red:.4g} "
+                         "kg; a contact never ends, so there is no t_c (kg/s)") from None
 
 
 def smallest_reduced_mass(scene: Scene) -> float:

@@ -16,48 +16,71 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from .jit import JIT
-from .sectors import near
-from .state import INNER_WALL, pack_particles, unpack_particles
+from .jit import INLINE, JIT
+from .state import INNER_WALL
+
+
+class Rings(NamedTuple):
+    """The two rings of a Couette scene (SI): r_in (m) and omega_in (rad/s, counter-clockwise
+    positive) of the inner ring; r_out (m, final), r_out0 (m, at t = 0) and t_comp (s, the
+    compression time) of the outer ring; flat_in, flat_out: 1.0 where the flat ring surface is
+    a contact surface, 0.0 where only its wall disks are (``WallLayout.flat``)."""
+
+    r_in: float = 0.0
+    omega_in: float = 0.0
+    r_out: float = 0.0
+    r_out0: float = 0.0
+    t_comp: float = 0.0
+    flat_in: float = 1.0
+    flat_out: float = 1.0
+
+
+def rings_of(g) -> Rings:
+    """Rings of a scene's Geometry (None: a free scene, no rings)."""
+    if g is None:
+        return Rings()
+    return Rings(g.inner_radius, g.omega_inner, g.outer_radius, g.outer_start_radius,
+                 g.compression_time, float(wall_layout(g, "inner").flat),
+                 float(wall_layout(g, "outer").flat))
 
 
 @nb.njit(**JIT)
-def outer_radius(t, prm):
+def outer_radius(t, rings):
     """Outer ring radius (m) and its rate (m/s) at time t (s)."""
-    if t >= prm.t_comp or prm.t_comp <= 0.0:
-        return prm.r_out, 0.0
-    c = 0.5 * (1.0 + math.cos(math.pi * t / prm.t_comp))
-    rate = -0.5 * math.pi / prm.t_comp * math.sin(math.pi * t / prm.t_comp)
-    return prm.r_out + (prm.r_out0 - prm.r_out) * c, (prm.r_out0 - prm.r_out) * rate
+    if t >= rings.t_comp or rings.t_comp <= 0.0:
+        return rings.r_out, 0.0
+    c = 0.5 * (1.0 + math.cos(math.pi * t / rings.t_comp))
+    rate = -0.5 * math.pi / rings.t_comp * math.sin(math.pi * t / rings.t_comp)
+    return rings.r_out + (rings.r_out0 - rings.r_out) * c, (rings.r_out0 - rings.r_out) * rate
 
 
 @nb.njit(**JIT)
-def outer_ring_settled(t, prm):
+def outer_ring_settled(t, dt, rings):
     """True at time t (s) if the outer ring's disks already sit at rest at their final radius:
     the step loop placed them at an earlier step after the compression (t - 2 dt >= t_comp:
     one step of slack against rounding of t; it also means step >= 2, so that earlier placement
     was the loop's, not the initial layout's). Placing them again would write the same bits."""
-    return t - 2.0 * prm.dt >= prm.t_comp
+    return t - 2.0 * dt >= rings.t_comp
 
 
 @nb.njit(**JIT)
-def place_wall_disks(ps, first, last, t, prm, settled):
+def place_wall_disks(ps, first, last, t, rings, settled):
     """Set position, velocity and spin of wall disks ps[first:last] at time t (an exact function
     of t and the disk's unit vector e0, so every rank and every restart gets the same bits).
     ``settled`` (outer_ring_settled): skip the outer ring's disks, which would not change."""
-    r_o, r_o_dot = outer_radius(t, prm)
-    c, s = math.cos(prm.omega_in * t), math.sin(prm.omega_in * t)
+    r_o, r_o_dot = outer_radius(t, rings)
+    c, s = math.cos(rings.omega_in * t), math.sin(rings.omega_in * t)
     for k in range(first, last):
         ex, ey = ps.e0[k, 0], ps.e0[k, 1]
         if ps.kind[k] == INNER_WALL:  # rotate e0 by omega_in t
             ux = ex * c - ey * s
             uy = ey * c + ex * s
-            ps.x[k, 0] = prm.r_in * ux
-            ps.x[k, 1] = prm.r_in * uy
-            ps.v[k, 0] = -prm.omega_in * prm.r_in * uy
-            ps.v[k, 1] = prm.omega_in * prm.r_in * ux
-            ps.omega[k] = prm.omega_in  # glued: turns with the ring
-            ps.theta[k] = prm.omega_in * t
+            ps.x[k, 0] = rings.r_in * ux
+            ps.x[k, 1] = rings.r_in * uy
+            ps.v[k, 0] = -rings.omega_in * rings.r_in * uy
+            ps.v[k, 1] = rings.omega_in * rings.r_in * ux
+            ps.omega[k] = rings.omega_in  # glued: turns with the ring
+            ps.theta[k] = rings.omega_in * t
         elif not settled:
             ps.x[k, 0] = r_o * ex
             ps.x[k, 1] = r_o * ey
@@ -66,22 +89,23 @@ def place_wall_disks(ps, first, last, t, prm, settled):
             ps.omega[k] = 0.0
 
 
-@nb.njit(**JIT)
-def arrange_walls(ps, first, first_idle, end, t, prm, edges, rank, margin, width):
-    """Under MPI, at an exchange: place the idle wall disks ps[first_idle:end] at time t (the
-    step loop moved only ps[first:first_idle]), then store the wall disks ps[first:end] that are
-    within ``margin`` (m) of sector ``rank`` (edges: the sector edges, rad) or inside it first.
-    Returns how many that is. ``width``: columns of a packed row. One compiled call: at an
-    exchange, every call from Python that passes the particle arrays costs tens of us."""
-    place_wall_disks(ps, first_idle, end, t, prm, False)
-    close = near(ps.x[first:end], edges, rank, margin)
-    n_near = int(close.sum())
-    if not close[:n_near].all():  # not yet stored near-first
-        order = np.concatenate((np.flatnonzero(close), np.flatnonzero(~close))) + first
-        rows = np.empty((order.size, width))
-        pack_particles(ps, order, rows)
-        unpack_particles(rows, ps, first)
-    return n_near
+@nb.njit(**INLINE)
+def ring_surface(rx, ry, a, lim, r_o, r_o_dot, rings):
+    """A disk of radius a at (rx, ry) against the flat ring surfaces, counted as touching
+    within ``lim`` (m): ``-> (ring, nx, ny, delta, vx, vy, s, spin)``, ring 0 (none), 1
+    (inner) or 2 (outer); the unit normal from the surface to the disk, the overlap (m), the
+    velocity (m/s) of the surface's centre line, its turning speed s = radius x spin (m/s; the
+    contact point moves at (vx, vy) + s z x n, as a disk of that radius would) and its spin
+    (rad/s). r_o, r_o_dot: outer radius and rate now (outer_radius).
+    A ring without its flat surface is never touched; a disk cannot touch both."""
+    rs_r = math.sqrt(rx * rx + ry * ry)
+    if rings.flat_in != 0.0 and rs_r - rings.r_in < a + lim:  # n = +e_r; turns at omega_in
+        return (1, rx / rs_r, ry / rs_r, a - (rs_r - rings.r_in), 0.0, 0.0,
+                rings.omega_in * rings.r_in, rings.omega_in)
+    if rings.flat_out != 0.0 and r_o - rs_r < a + lim:  # n = -e_r; moves radially at r_o_dot
+        rs_nx, rs_ny = -rx / rs_r, -ry / rs_r
+        return 2, rs_nx, rs_ny, a - (r_o - rs_r), -r_o_dot * rs_nx, -r_o_dot * rs_ny, 0.0, 0.0
+    return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
 
 
 class WallLayout(NamedTuple):

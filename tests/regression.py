@@ -30,21 +30,22 @@ DYNAMICS = ("gid", "x", "v", "theta", "omega", "f", "tau")
 
 def digest(state: dict[str, np.ndarray]) -> dict[str, str | None]:
     """``{"dynamics": hex, "eta": hex or None}`` of a gathered state (arrays as in a checkpoint:
-    particles sorted by gid; pair_lo, pair_hi, pair_xi sorted by key; the history columns are
-    the spring, then eta where tracked)."""
+    particles sorted by gid; pair_lo, pair_hi and the history (pair_hist, or pair_xi in the
+    format before the contact slots) sorted by key; the history columns are the spring, then
+    eta where tracked)."""
     h = hashlib.sha256()
     for key in DYNAMICS:
         h.update(np.ascontiguousarray(state[key]).tobytes())
     h.update(np.ascontiguousarray(state["pair_lo"], np.int64).tobytes())
     h.update(np.ascontiguousarray(state["pair_hi"], np.int64).tobytes())
-    for key in ("pair_xi", "xi_wall"):
-        xi = np.asarray(state[key], float)
+    pair, wall = (np.asarray(state[k], float) for k in (
+        ("pair_hist", "hist_wall") if "pair_hist" in state else ("pair_xi", "xi_wall")))
+    for xi in (pair, wall):
         h.update(np.ascontiguousarray(xi[:, :2] if xi.size else xi).tobytes())
     eta = None
-    xi = np.asarray(state["pair_xi"], float)
-    if xi.ndim == 2 and xi.shape[1] == 4:
-        e = hashlib.sha256(np.ascontiguousarray(xi[:, 2:]).tobytes())
-        e.update(np.ascontiguousarray(np.asarray(state["xi_wall"], float)[:, 2:]).tobytes())
+    if pair.ndim == 2 and pair.shape[1] == 4:
+        e = hashlib.sha256(np.ascontiguousarray(pair[:, 2:]).tobytes())
+        e.update(np.ascontiguousarray(wall[:, 2:]).tobytes())
         eta = e.hexdigest()
     return {"dynamics": h.hexdigest(), "eta": eta}
 

@@ -1,10 +1,14 @@
-"""Checkpoints: the full state in one HDF5 file, written atomically.
+"""Checkpoint files: the full state in one HDF5 file, written atomically.
 
-Stage: output / restart. Holds every particle array (including forces and torques of the current
-positions, which velocity Verlet needs for its next half kick), the tangential springs of all
-listed pairs keyed by (gid_lo, gid_hi), the flat-ring springs, the step counter (time = step * dt),
-the inner-ring angle, dt and the scene fingerprint (a restart of a different scene is refused).
-The file is written as ``NAME.tmp`` and renamed, so a crash never leaves a broken checkpoint.
+Stage: output / restart (what goes in: ``restart.py``). Datasets: every particle array
+(``ARRAYS``, including forces and torques of the current positions, which velocity Verlet needs
+for its next half kick), the contact history keyed by (gid_lo, gid_hi) (``pair_lo``,
+``pair_hi``, ``pair_hist``; columns named in the attribute ``history_columns``), the applied
+forces of touching pairs (``force_lo``, ``force_hi``, ``pair_force`` [m,3]) and of ring
+contacts (``ring_force`` [n,3]); attributes: the step (time = step * dt), time, dt, the
+inner-ring angle, the scene fingerprint (a restart of a different scene is refused). Version 1
+files (pardem before the contact-model slots) are read too. The file is written as
+``NAME.tmp`` and renamed, so a crash never leaves a broken checkpoint.
 """
 
 from __future__ import annotations
@@ -18,7 +22,9 @@ import numpy as np
 from ..scene import SceneError
 
 ARRAYS = ("gid", "kind", "x", "v", "theta", "omega", "f", "tau", "radius", "mass", "phi0", "e0",
-          "xi_wall")
+          "hist_wall")
+PAIRS = ("pair_lo", "pair_hi", "pair_hist", "force_lo", "force_hi", "pair_force", "ring_force")
+VERSION = 2
 
 
 def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
@@ -27,7 +33,7 @@ def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
     tmp = path.with_name(path.name + ".tmp")
     with h5py.File(tmp, "w") as h5:
         h5.attrs["format"] = "pardem-checkpoint"
-        h5.attrs["version"] = 1
+        h5.attrs["version"] = VERSION
         for k, v in attrs.items():
             h5.attrs[k] = v
         for k, v in arrays.items():
@@ -36,6 +42,7 @@ def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
 
 
 def load_checkpoint(path: str | os.PathLike) -> tuple[dict[str, np.ndarray], dict[str, object]]:
+    """``(arrays, attrs)`` of a checkpoint; attrs["history_columns"] as a tuple of names."""
     path = Path(path)
     if not path.exists():
         raise SceneError(f"--restart {path}: file does not exist")
@@ -47,7 +54,29 @@ def load_checkpoint(path: str | os.PathLike) -> tuple[dict[str, np.ndarray], dic
             arrays = {k: h5[k][()] for k in h5.keys()}
     except OSError as e:
         raise SceneError(f"--restart {path}: unreadable or truncated checkpoint ({e})") from e
-    missing = [k for k in ARRAYS + ("pair_lo", "pair_hi", "pair_xi") if k not in arrays]
+    if int(attrs.get("version", 1)) == 1:
+        _upgrade(arrays, attrs)
+    missing = [k for k in ARRAYS + PAIRS if k not in arrays]
     if missing:
         raise SceneError(f"--restart {path}: checkpoint lacks {', '.join(missing)}")
+    names = str(attrs.get("history_columns", ""))
+    attrs["history_columns"] = tuple(names.split(",")) if names else ()
     return arrays, attrs
+
+
+def _upgrade(arrays: dict[str, np.ndarray], attrs: dict[str, object]) -> None:
+    """A version-1 checkpoint in version 2's terms: ``xi_wall``/``pair_xi`` hold the spring (2
+    columns) or the spring and eta (4); no recorded forces (output at the restart step reports
+    zero forces until the first step)."""
+    for old, new in (("xi_wall", "hist_wall"), ("pair_xi", "pair_hist")):
+        if old in arrays:
+            arrays[new] = arrays.pop(old)
+    width = arrays["pair_hist"].shape[1] if arrays.get("pair_hist") is not None else 0
+    attrs["history_columns"] = {0: "", 2: "spring_x,spring_y",
+                                4: "spring_x,spring_y,eta_x,eta_y"}.get(width, "")
+    if not arrays["pair_hist"].size and not arrays["hist_wall"].size:
+        attrs["history_columns"] = ""
+    arrays.setdefault("force_lo", np.zeros(0, np.int64))
+    arrays.setdefault("force_hi", np.zeros(0, np.int64))
+    arrays.setdefault("pair_force", np.zeros((0, 3)))
+    arrays.setdefault("ring_force", np.zeros((arrays["gid"].size, 3)))

@@ -9,7 +9,7 @@ and the listed pairs that involve one of those (must be none); the tests compare
 between rank counts. ``--grow-window``: start the shared-memory ghost refresh with a window
 too small for it, so that the next build must replace it. ``--shared-limit``: the largest
 refresh (doubles per rank) sent through shared memory, instead of
-``decomposition.SHARED_HALO_LIMIT``. ``--check-lists``: after every neighbour build (local
+``pardem.parallel.comm.SHARED_HALO_LIMIT``. ``--check-lists``: after every neighbour build (local
 or with an exchange), the ranks' pair lists together must be exactly the pairs a brute-force
 search finds in the gathered positions (a ghost missing after a build without exchange would
 lose a pair); the number of builds checked is saved.
@@ -20,11 +20,11 @@ import argparse
 import numpy as np
 from mpi4py import MPI
 
-from pardem import decomposition
-from pardem.mpi_native import SharedWindow
-from pardem.neighbors import brute_force_pairs
+from pardem.parallel import comm as decomposition
+from pardem.parallel.halo import SharedWindow
 from pardem.scene import load_scene
 from pardem.simulation import Simulation
+from pardem.testing import brute_force_pairs
 
 CHECKED = [0]
 

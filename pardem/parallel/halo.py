@@ -1,34 +1,28 @@
-"""MPI from compiled code: the per-step ghost refresh, called inside the step loop.
+"""The per-step ghost refresh under MPI, called from inside the compiled step loop, and the
+compiled collectives of an exchange.
 
-Stage: communication (one of the two MPI modules; the other, ``decomposition.py``, does the
-rare collective work with mpi4py). At ~25 us per step, a return to Python for every exchange
-would cost as much as the physics, so the step loop calls libmpi directly: the functions are
-declared as external symbols (``numba.types.ExternalFunction``) and resolved in the libmpi that
-mpi4py has already loaded. Unlike ctypes pointers, external symbols keep numba's on-disk cache
-usable (the address is resolved when the cached code is loaded, not baked into it).
+Stage: communication. At ~25 us per step, a return to Python for every refresh would cost as
+much as the physics, so the step loop calls libmpi directly (``native.py``).
 
-One message per neighbour rank per step, in each direction: a 3-value header (bad-particle flag,
+One block per neighbour rank per step, in each direction: a 3-value header (bad-particle flag,
 largest displacement since the neighbour build, largest squared speed) followed by x, y,
-v_pred x, v_pred y, w_pred of each ghost, in the order fixed at the last exchange. A
-particle near both edges of a 2-rank cell is sent once, and the two edges share one ordered
-stream, so edges cannot mix. If the neighbour sets do not cover all ranks (possible from P = 4
-on; checked at every exchange), the header maxima are completed by one ``MPI_Allreduce``;
+v_pred x, v_pred y, w_pred of each ghost, in the order fixed at the last exchange. A particle
+near both edges of a 2-rank cell is sent once, and the two edges share one ordered stream, so
+edges cannot mix. If the neighbour sets do not cover all ranks (possible from P = 4 on;
+checked at every exchange), the header maxima are completed by one ``MPI_Allreduce``;
 otherwise the headers already hold the global maxima and no collective is needed.
 
-When all ranks share one node with a core each (the usual case for this code), small ghost
-refreshes do not travel as messages at all: each rank owns a slice of one MPI-3 shared-memory
-window, writes its outgoing blocks there (same layout as a message buffer), publishes the step
-number with a release store, and reads its neighbours' blocks once their step numbers arrive
-(acquire loads). For 50 ghosts that took 0.6-1.7 us against 1.9-2.9 us for Irecv + Isend +
-Waitall, whose shared-memory messages move only inside an MPI call; from a few hundred ghosts
-on, messages are faster (``run_scripts/mpi_latency.py``), so the decomposition chooses by size
-at each exchange. Two buffers, alternating with the step's parity, keep a fast rank from
+When all ranks share one node with a core each (the usual case for this code), small refreshes
+do not travel as messages at all: each rank owns a slice of one MPI-3 shared-memory window,
+writes its outgoing blocks there (same layout as a message buffer), publishes the step number
+with a release store, and reads its neighbours' blocks once their step numbers arrive (acquire
+loads). For 50 ghosts that took 0.6-1.7 us against 1.9-2.9 us for Irecv + Isend + Waitall,
+whose shared-memory messages move only inside an MPI call; from a few hundred ghosts on,
+messages are faster (``run_scripts/mpi_latency.py``), so the decomposition chooses by size at
+each exchange. Two buffers, alternating with the step's parity, keep a fast rank from
 overwriting blocks a neighbour is still reading: it cannot get two steps ahead, because every
 step waits for the neighbours' step numbers. A wait longer than ~5 us yields the core at every
 further look. ``PARDEM_HALO=messages`` forces messages.
-
-Handles: MPICH's are C ``int``; an MPI-ABI build uses pointers. Both are passed in registers on
-x86-64 and AArch64, so the handle width is chosen from mpi4py's ``MPI._sizeof(MPI.Comm)``.
 """
 
 from __future__ import annotations
@@ -36,14 +30,13 @@ from __future__ import annotations
 import os
 from typing import NamedTuple
 
-import llvmlite.binding as llvm
 import numba as nb
 import numpy as np
 from mpi4py import MPI
-from numba.core import cgutils, types
-from numba.extending import intrinsic
 
-from .jit import JIT
+from ..jit import JIT
+from .native import (load_acquire, mpi_allreduce, mpi_alltoall, mpi_alltoallv, mpi_irecv,
+                     mpi_isend, mpi_waitall, mpi_wtime, sched_yield, store_release)
 
 HEADER = 3  # bad flag, displacement, squared speed
 GHOST_VALUES = 5  # x, y, v_pred x, v_pred y, w_pred
@@ -52,50 +45,37 @@ SPINS = 4000  # reads of a neighbour's step number (~5 us) before yielding the c
 SEQ = 8  # doubles at the start of a rank's shared slice: its step number (int64), one line
 
 
-def _libmpi_path() -> str:
-    """The libmpi mpi4py linked against (already mapped into this process)."""
-    with open("/proc/self/maps") as maps:
-        for line in maps:
-            path = line.split()[-1]
-            name = path.rsplit("/", 1)[-1]
-            if name.startswith(("libmpi.so", "libmpi_abi.so", "libmpich.so")):
-                return path
-    raise RuntimeError("pardem: cannot find the MPI library that mpi4py loaded")
+class Handles(NamedTuple):
+    """MPI handles and sizes for compiled collectives (int64): the communicator, MPI_DOUBLE,
+    MPI_INT, the sizes (bytes) of an MPI_Request and an MPI_Status, and the number of ranks."""
+
+    comm: int
+    double: int
+    int32: int
+    request_size: int
+    status_size: int
+    size: int
 
 
-llvm.load_library_permanently(_libmpi_path())
-_H = types.int32 if MPI._sizeof(MPI.Comm) == 4 else types.intp
-_I, _P = types.int32, types.intp
-mpi_irecv = types.ExternalFunction("MPI_Irecv", _I(_P, _I, _H, _I, _I, _H, _P))
-mpi_isend = types.ExternalFunction("MPI_Isend", _I(_P, _I, _H, _I, _I, _H, _P))
-mpi_waitall = types.ExternalFunction("MPI_Waitall", _I(_I, _P, _P))
-mpi_allreduce = types.ExternalFunction("MPI_Allreduce", _I(_P, _P, _I, _H, _H, _H))
-mpi_wtime = types.ExternalFunction("MPI_Wtime", types.float64())
-sched_yield = types.ExternalFunction("sched_yield", _I())  # libc
-mpi_alltoall = types.ExternalFunction("MPI_Alltoall", _I(_P, _I, _H, _P, _I, _H, _H))
-mpi_alltoallv = types.ExternalFunction("MPI_Alltoallv", _I(_P, _P, _P, _H, _P, _P, _P, _H, _H))
+def handles_of(comm) -> Handles:
+    return Handles(MPI._handleof(comm), MPI._handleof(MPI.DOUBLE), MPI._handleof(MPI.INT),
+                   MPI._sizeof(MPI.Request), MPI._sizeof(MPI.Status), comm.Get_size())
 
 
-@intrinsic
-def load_acquire(typingctx, arr, idx):
-    """arr[idx] (int64) read with acquire order: later reads see what the writer stored before
-    its matching ``store_release``, and the compiler can neither drop nor hoist the read."""
-    def codegen(context, builder, sig, args):
-        ary = context.make_array(sig.args[0])(context, builder, args[0])
-        ptr = cgutils.get_item_pointer(context, builder, sig.args[0], ary, [args[1]])
-        return builder.load_atomic(ptr, "acquire", 8)
-    return types.int64(arr, idx), codegen
+class HaloConfig(NamedTuple):
+    """How a plan refreshes (int64): communicator, MPI_DOUBLE and MPI_MAX handles, request size
+    (bytes), ``allreduce`` (1: complete the header maxima by an Allreduce), ``shared`` (1:
+    through the shared-memory window, 0: messages), ``cap`` (doubles per shared buffer),
+    this rank."""
 
-
-@intrinsic
-def store_release(typingctx, arr, idx, value):
-    """arr[idx] = value (int64) with release order: every earlier store is visible first."""
-    def codegen(context, builder, sig, args):
-        ary = context.make_array(sig.args[0])(context, builder, args[0])
-        ptr = cgutils.get_item_pointer(context, builder, sig.args[0], ary, [args[1]])
-        builder.store_atomic(args[2], ptr, "release", 8)
-        return context.get_dummy_value()
-    return types.void(arr, idx, types.int64), codegen
+    comm: int
+    double: int
+    op_max: int
+    request_size: int
+    allreduce: int
+    shared: int
+    cap: int
+    rank: int
 
 
 class Halo(NamedTuple):
@@ -107,9 +87,7 @@ class Halo(NamedTuple):
     req, status: MPI request and status storage (bytes). red [6]: Allreduce buffers.
     shared [P, SEQ + 2 cap], seq (the same memory as int64): the shared-memory window, one row
     per rank (dummies without it). peer_at [k]: where neighbour q keeps this rank's block in
-    its buffer. ints: active (0 on one rank: no MPI call at all), comm, MPI_DOUBLE, MPI_MAX
-    handles, request size in bytes, use_allreduce, shared memory (1) or messages (0), cap
-    (doubles per buffer), this rank.
+    its buffer. cfg: HaloConfig.
     wait [1] (s): time spent waiting for the neighbours' blocks (shared memory) or in
     MPI_Waitall, and in MPI_Allreduce, accumulated over the run (the decomposition passes the
     same array to every new plan): the exchange latency plus the wait for slower neighbours.
@@ -127,20 +105,21 @@ class Halo(NamedTuple):
     shared: np.ndarray
     seq: np.ndarray
     peer_at: np.ndarray
-    ints: np.ndarray
+    cfg: HaloConfig
     wait: np.ndarray
 
 
 @nb.njit(**JIT)
-def halo_buffers(nbr, send_idx, send_off, recv_off, req_size, status_size):
-    """The plan (arrays as in Halo) followed by its message, request, status and Allreduce
-    buffers: the first nine fields of a Halo."""
+def halo_buffers(plan, handles):
+    """The plan (nbr, send_idx, send_off, recv_off; arrays as in Halo) followed by its message,
+    request, status and Allreduce buffers: the first nine fields of a Halo."""
+    nbr, send_idx, send_off, recv_off = plan
     k = nbr.size
     return (nbr, send_idx, send_off, recv_off,
             np.zeros(HEADER * k + GHOST_VALUES * send_idx.size),
             np.zeros(HEADER * k + GHOST_VALUES * recv_off[k]),
-            np.zeros(max(2 * k * req_size, 8), np.uint8),
-            np.zeros(max(2 * k * status_size, 8), np.uint8), np.zeros(6))
+            np.zeros(max(2 * k * handles.request_size, 8), np.uint8),
+            np.zeros(max(2 * k * handles.status_size, 8), np.uint8), np.zeros(6))
 
 
 def make_halo(comm, buffers: tuple, use_allreduce: bool, wait: np.ndarray | None = None,
@@ -148,15 +127,13 @@ def make_halo(comm, buffers: tuple, use_allreduce: bool, wait: np.ndarray | None
     """Halo from ``halo_buffers``; ``wait``: the accumulator to keep using (the run's total),
     or None for a new one; ``window`` and ``peer_at`` (``peer_offsets``): refresh through
     shared memory, else by messages."""
-    active = comm is not None and comm.Get_size() > 1
     shared = window is not None
-    ints = np.array([int(active), MPI._handleof(comm) if active else 0,
-                     MPI._handleof(MPI.DOUBLE), MPI._handleof(MPI.MAX),
+    cfg = HaloConfig(MPI._handleof(comm), MPI._handleof(MPI.DOUBLE), MPI._handleof(MPI.MAX),
                      MPI._sizeof(MPI.Request), int(use_allreduce), int(shared),
-                     window.cap if shared else 0, comm.Get_rank() if active else 0], np.int64)
+                     window.cap if shared else 0, comm.Get_rank())
     if not shared:
         window, peer_at = _NO_WINDOW, np.zeros(0, np.int64)
-    return Halo(*buffers, window.shared, window.seq, peer_at, ints,
+    return Halo(*buffers, window.shared, window.seq, peer_at, cfg,
                 np.zeros(1) if wait is None else wait)
 
 
@@ -201,20 +178,12 @@ class _Dummy(NamedTuple):
 _NO_WINDOW = _Dummy(np.zeros((1, SEQ)), np.zeros((1, SEQ), np.int64))
 
 
-def collective_handles(comm) -> np.ndarray:
-    """[comm, MPI_DOUBLE, MPI_INT] handles for ``alltoallv``, the sizes (bytes) of an
-    MPI_Request and an MPI_Status for ``halo_buffers``, and the number of ranks (int64)."""
-    return np.array([MPI._handleof(comm), MPI._handleof(MPI.DOUBLE), MPI._handleof(MPI.INT),
-                     MPI._sizeof(MPI.Request), MPI._sizeof(MPI.Status), comm.Get_size()],
-                    np.int64)
-
-
 @nb.njit(**JIT)
 def peer_offsets(nbr, send_idx, send_off, handles):
     """Collective (shared-memory refresh): tell each neighbour where its block lies in this
     rank's buffer. Returns ``(peer_at, need, mpi_error)``: where each neighbour nbr[q] keeps
     this rank's block, and the largest buffer (doubles) any rank needs."""
-    size, comm, dbl = handles[5], handles[0], handles[1]
+    size = handles.size
     k = nbr.size
     out = np.full(2 * size, -1.0)
     into = np.empty(2 * size)
@@ -222,7 +191,8 @@ def peer_offsets(nbr, send_idx, send_off, handles):
         out[2 * r + 1] = HEADER * k + GHOST_VALUES * send_idx.size
     for q in range(k):
         out[2 * nbr[q]] = HEADER * q + GHOST_VALUES * send_off[q]
-    err = mpi_alltoall(out.ctypes.data, 2, dbl, into.ctypes.data, 2, dbl, comm)
+    err = mpi_alltoall(out.ctypes.data, 2, handles.double, into.ctypes.data, 2, handles.double,
+                       handles.comm)
     peer_at = np.empty(k, np.int64)
     for q in range(k):
         peer_at[q] = int(into[2 * nbr[q]])
@@ -238,51 +208,43 @@ def alltoallv(sbuf, send_off, handles):
     mpi_error)``: the piece from rank q is ``rbuf[recv_off[q]:recv_off[q + 1]]``. Collective:
     the counts in one MPI_Alltoall, the data in one MPI_Alltoallv."""
     size = send_off.size - 1
-    comm, dbl, i32 = handles[0], handles[1], handles[2]
     s_n = np.empty(size, np.int32)
     s_at = np.empty(size, np.int32)
     for r in range(size):
         s_n[r] = send_off[r + 1] - send_off[r]
         s_at[r] = send_off[r]
     r_n = np.zeros(size, np.int32)
-    err = mpi_alltoall(s_n.ctypes.data, 1, i32, r_n.ctypes.data, 1, i32, comm)
+    err = mpi_alltoall(s_n.ctypes.data, 1, handles.int32, r_n.ctypes.data, 1, handles.int32,
+                       handles.comm)
     recv_off = np.zeros(size + 1, np.int64)
     r_at = np.empty(size, np.int32)
     for q in range(size):
         r_at[q] = recv_off[q]
         recv_off[q + 1] = recv_off[q] + r_n[q]
     rbuf = np.empty(recv_off[size])
-    err |= mpi_alltoallv(sbuf.ctypes.data, s_n.ctypes.data, s_at.ctypes.data, dbl,
-                         rbuf.ctypes.data, r_n.ctypes.data, r_at.ctypes.data, dbl, comm)
+    err |= mpi_alltoallv(sbuf.ctypes.data, s_n.ctypes.data, s_at.ctypes.data, handles.double,
+                         rbuf.ctypes.data, r_n.ctypes.data, r_at.ctypes.data, handles.double,
+                         handles.comm)
     return rbuf, recv_off, err
 
 
-def serial_halo() -> Halo:
-    """One rank: no neighbours, no MPI call."""
-    none, zero = np.zeros(0, np.int64), np.zeros(1, np.int64)
-    return make_halo(None, halo_buffers(none, none, zero, zero, 8, 8), False)
-
-
 @nb.njit(**JIT)
-def refresh_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step):
+def exchange_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step):
     """Send owned boundary particles' x, v_pred, w_pred to the neighbours, receive the ghosts into
     ps[first_ghost:], and combine the headers into global maxima (``step``: the step the ghosts
-    move to). Returns ``(mpi_error, bad_anywhere, disp, v2)``; with one rank it returns the
-    inputs."""
-    if halo.ints[0] == 0:
-        return 0, bad_here, disp_here, v2_here
-    comm, dbl, op_max, rsize = halo.ints[1], halo.ints[2], halo.ints[3], halo.ints[4]
-    shared, me = halo.ints[6] != 0, halo.ints[8]
+    move to). Returns ``(mpi_error, bad_anywhere, disp, v2)``."""
+    cfg = halo.cfg
+    shared = cfg.shared != 0
     k = halo.nbr.size
     err = 0
     req = halo.req.ctypes.data
-    base = SEQ + (step & 1) * halo.ints[7]  # this step's buffer in the shared rows
+    base = SEQ + (step & 1) * cfg.cap  # this step's buffer in the shared rows
     if shared:
-        out = halo.shared[me]
+        out = halo.shared[cfg.rank]
         for q in range(k):
             _pack(ps, halo, q, out, base + HEADER * q + GHOST_VALUES * halo.send_off[q],
                   bad_here, disp_here, v2_here)
-        store_release(halo.seq[me], 0, step)
+        store_release(halo.seq[cfg.rank], 0, step)
         t0 = mpi_wtime()
         spins = 0
         for q in range(k):
@@ -295,13 +257,13 @@ def refresh_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step):
         for q in range(k):
             r0 = HEADER * q + GHOST_VALUES * halo.recv_off[q]
             cnt = HEADER + GHOST_VALUES * (halo.recv_off[q + 1] - halo.recv_off[q])
-            err |= mpi_irecv(halo.rbuf.ctypes.data + 8 * r0, cnt, dbl, halo.nbr[q], TAG, comm,
-                             req + rsize * q)
+            err |= mpi_irecv(halo.rbuf.ctypes.data + 8 * r0, cnt, cfg.double, halo.nbr[q], TAG,
+                             cfg.comm, req + cfg.request_size * q)
         for q in range(k):
             s0 = HEADER * q + GHOST_VALUES * halo.send_off[q]
             cnt = _pack(ps, halo, q, halo.sbuf, s0, bad_here, disp_here, v2_here)
-            err |= mpi_isend(halo.sbuf.ctypes.data + 8 * s0, cnt, dbl, halo.nbr[q], TAG, comm,
-                             req + rsize * (k + q))
+            err |= mpi_isend(halo.sbuf.ctypes.data + 8 * s0, cnt, cfg.double, halo.nbr[q], TAG,
+                             cfg.comm, req + cfg.request_size * (k + q))
         t0 = mpi_wtime()
         err |= mpi_waitall(2 * k, req, halo.status.ctypes.data)
         halo.wait[0] += mpi_wtime() - t0
@@ -325,13 +287,14 @@ def refresh_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step):
             ps.w_pred[g] = rb[p + 4]
             p += GHOST_VALUES
             g += 1
-    if halo.ints[5]:
+    if cfg.allreduce:
         red = halo.red
         red[0] = bad_f
         red[1] = disp
         red[2] = v2
         t0 = mpi_wtime()
-        err |= mpi_allreduce(red.ctypes.data, red.ctypes.data + 24, 3, dbl, op_max, comm)
+        err |= mpi_allreduce(red.ctypes.data, red.ctypes.data + 24, 3, cfg.double, cfg.op_max,
+                             cfg.comm)
         halo.wait[0] += mpi_wtime() - t0
         bad_f, disp, v2 = red[3], red[4], red[5]
     return err, bad_f > 0.0, disp, v2

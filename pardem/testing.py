@@ -1,8 +1,10 @@
-"""Reference experiments shared by the tests and the accuracy study (run_scripts/accuracy_study.py).
+"""Reference experiments and references shared by the tests and the accuracy study
+(run_scripts/accuracy_study.py).
 
 Stage: verification. ``two_disks`` sets up the head-on collision of SPEC §3 and ``measure``
 times it: contact start and end are the zero crossings of the overlap, linearly interpolated
 between steps, and the restitution is the ratio of the separation and approach speeds.
+``brute_force_pairs`` is the O(N^2) reference of the neighbour search.
 """
 
 from __future__ import annotations
@@ -13,7 +15,7 @@ import numpy as np
 
 from .scene import scene_from_dict
 from .simulation import Simulation
-from .timestep import contact_time
+from .contact.model import contact_time
 
 D_S, M_S = 7.42e-3, 0.275e-3  # the paper's small disks (m, kg)
 
@@ -33,8 +35,15 @@ def two_disks(d: float, m: float, dt, phase: float = 0.0, integrator: str = "ver
         "scene": {"name": "two-disks", "kind": "free", "seed": 1}, "particles": ps,
         "effects": no, "contact": {"k_n": k_n, "gamma_n": gamma_n, "k_t": 0.0, "mu": 0.0},
         "time": {"dt": dt, "end": 1.0, "integrator": integrator}}))
-    return (sim, lambda s: d - (s.ps.x[1, 0] - s.ps.x[0, 0]),
-            lambda s: s.ps.v[0, 0] - s.ps.v[1, 0])
+    def overlap(s):
+        x = s.gathered("position")["position"]
+        return d - (x[1, 0] - x[0, 0])
+
+    def approach(s):
+        v = s.gathered("velocity")["velocity"]
+        return v[0, 0] - v[1, 0]
+
+    return sim, overlap, approach
 
 
 def measure(sim, overlap, rel_speed, max_steps: int = 200_000) -> tuple[float, float]:
@@ -82,8 +91,7 @@ def elastic_gas_energy_error(dt_per_contact: float, steps: int, seed: int,
         "species": [{"name": "small", "diameter": D_S, "mass": M_S, "count": 250}],
         "effects": off, "time": {"dt_per_contact": dt_per_contact, "integrator": integrator}}))
     rng = np.random.default_rng(seed)
-    sim.ps.v[: sim.n_free] = rng.normal(0.0, 0.1, (sim.n_free, 2))
-    sim.refresh()
+    sim.set_particles(np.arange(sim.n_free), velocity=rng.normal(0.0, 0.1, (sim.n_free, 2)))
     e0 = sim.total_energy()
     errs, contacts = [], 0
     for _ in range(50):
@@ -93,3 +101,13 @@ def elastic_gas_energy_error(dt_per_contact: float, steps: int, seed: int,
     if contacts <= 100:
         raise RuntimeError("the gas had too few collisions to test anything")
     return float(np.mean(errs)), float(np.max(errs))
+
+
+def brute_force_pairs(x: np.ndarray, radius: np.ndarray, gid: np.ndarray, kind: np.ndarray,
+                      skin: float) -> set[tuple[int, int]]:
+    """Reference O(N^2) search: the set of (gid_lo, gid_hi) within a + a' + skin with at least
+    one free particle."""
+    d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=-1)
+    cut = radius[:, None] + radius[None, :] + skin
+    ii, jj = np.nonzero((d < cut) & (gid[:, None] < gid[None, :]))
+    return {(int(gid[i]), int(gid[j])) for i, j in zip(ii, jj) if kind[i] == 0 or kind[j] == 0}

@@ -7,7 +7,7 @@ A point outside wedge r is at distance min(distance to either boundary ray) from
 needs every particle within the ghost width of its wedge. This works for any sector width,
 including a wedge wider than pi (2 ranks) and an empty one. A future radial x angular cut only
 has to supply ``owners``, ``edge_vectors`` (its geometry as an array) and ``edge_distance`` for
-its cells; the build (``migration.py``) uses nothing else of the shape.
+its cells; the exchange (``exchange.py``) uses nothing else of the shape.
 """
 
 from __future__ import annotations
@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from .jit import JIT
+from ..jit import JIT
 
 TWO_PI = 2.0 * math.pi
 

@@ -1,11 +1,11 @@
 """Compiled exchange under MPI (the neighbour builds that ``Decomposition.exchange_due``
 selects): migration with contact history and ghost selection in one round, then the new layout
-of the rows and the per-step refresh plan.
+of the rows, the wall disks near the sector, and the per-step refresh plan.
 
-Stage: neighbour rebuild (``decomposition.distribute`` calls ``exchange_rows``; the collective
-itself is ``mpi_native.alltoallv``). Done as ~80 numpy and mpi4py calls with the interpreter's
-caches cold after the step loop, the glue of a build cost more than its work, so the whole
-exchange build (exchange, layout, lists) is one compiled call around one Alltoall +
+Stage: neighbour rebuild (``comm.Decomposition.distribute`` calls ``exchange_rows``; the
+collective itself is ``halo.alltoallv``). Done as ~80 numpy and mpi4py calls with the
+interpreter's caches cold after the step loop, the glue of a build cost more than its work, so
+the whole exchange build (exchange, layout, lists) is one compiled call around one Alltoall +
 Alltoallv. The other builds are one compiled call too (``neighbors.build_lists``).
 
 One round suffices because the sender knows where each of its particles goes: to rank r it
@@ -17,23 +17,41 @@ owner sends its per-step refreshes to r in gid order of the particles near secto
 set and order, because sender and owner apply the same distance test to the same bits.
 
 Message to one rank: [rows, springs, rows x (owner, packed row), springs x (lo, hi, history)],
-the history with as many columns as the pair list's (spring, and eta if tracked).
+the history with as many columns as the pair list's (contact.model.history_columns).
 """
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba as nb
 import numpy as np
 
-from .jit import JIT
-from .mpi_native import alltoallv, halo_buffers, peer_offsets
-from .neighbors import build_lists, live_springs
-from .sectors import edge_distance, edge_vectors, owners
-from .state import pack_particles, unpack_particles
-from .walls import arrange_walls
+from ..contact.history import SHIFT, live_history, merge_history
+from ..jit import JIT
+from ..neighbors import build_lists
+from ..state import pack_particles, unpack_particles
+from ..walls import place_wall_disks
+from .halo import alltoallv, halo_buffers, peer_offsets
+from .sectors import edge_distance, edge_vectors, near, owners
 
 
-SHIFT, LOW = 32, (1 << 32) - 1  # sort keys (high, low): rank or gid, gid; gids < 2**31
+class ExchangePlan(NamedTuple):
+    """What an exchange needs to know of the decomposition: ``edges`` [P+1] (rad, the sector
+    edges), this ``rank``, ``ghost_width`` (m: particles this close to a sector are its
+    ghosts), ``wall_margin`` (m: wall disks this close to the sector are moved by its rank),
+    ``width`` (columns of a packed row) and ``x_col`` (its first position column), ``shared``
+    (the refresh goes through shared memory) and ``ring_walls`` (build the ring-contact
+    candidates)."""
+
+    edges: np.ndarray
+    rank: int
+    ghost_width: float
+    wall_margin: float
+    width: int
+    x_col: int
+    shared: bool
+    ring_walls: bool
 
 
 @nb.njit(**JIT)
@@ -44,49 +62,48 @@ def _destination(gid, mig_gid, mig_dest):
 
 
 @nb.njit(**JIT)
-def exchange_rows(ps, pairs, clock, n_move, n_local, idle, edges, rank, ghost_width, width,
-                  x_col, from_list, lo, hi, xi, t, prm, wall_margin, handles, shared,
-                  friction, ring_walls):
-    """The whole exchange (collective): ``send_rows``, ``receive_rows``,
-    with a ``shared`` memory refresh ``mpi_native.peer_offsets``, and the new counts in clock.
-    If the rows were written, also the lists (``neighbors.build_lists``, springs carried from
-    the merged ones): one compiled call for the whole build, since at a build each call from
-    Python costs tens of us to dispatch. Returns ``(mpi_error, received, peers, lists)``: received
-    as from receive_rows, peers (peer_at, need) or empty, lists (pair count, ring candidate
-    count) from build_lists, or (-1, -1) if not built."""
-    rbuf, recv_off, owner, lo, hi, xi, err = send_rows(ps, pairs, n_move, edges, rank,
-                                                       ghost_width, width, from_list, lo, hi,
-                                                       xi, handles)
-    received = receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank,
-                            ghost_width, width, x_col, lo, hi, xi, t, prm, wall_margin, handles,
-                            err == 0)
+def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, handles):
+    """The whole exchange (collective): ``send_rows``, ``receive_rows``, with a shared-memory
+    refresh ``halo.peer_offsets``, and the new counts in clock. ``counts``: (n_move, n_local,
+    idle) before it (owned rows, owned rows + wall disks, wall disks not moved since the last
+    exchange). ``history``: (lo, hi, rows), used unless ``from_list`` (the springs of the current
+    pair list). If the rows were written, also the lists (``neighbors.build_lists``, history
+    carried from the merged one): one compiled call for the whole build, since at a build each
+    call from Python costs tens of us to dispatch. Returns ``(mpi_error, received, peers,
+    lists)``: received as from receive_rows, peers (peer_at, need) or empty, lists (pair count,
+    ring candidate count) from build_lists, or (-1, -1) if not built."""
+    n_move = counts[0]
+    rbuf, recv_off, owner, history, err = send_rows(ps, pairs, n_move, plan, from_list, history,
+                                                    handles)
+    received = receive_rows(ps, counts, owner, (rbuf, recv_off), plan, history, t, prm,
+                            handles, err == 0)
     written, moved, n_near, _, own, _, ghosts, springs, buffers = received
     peer_at, need = np.zeros(0, np.int64), 0
-    if shared:
+    if plan.shared:
         peer_at, need, err2 = peer_offsets(buffers[0], buffers[1], buffers[2], handles)
         err |= err2
     n_own = own.shape[0] if moved else n_move
     clock.n_move[0] = n_own
-    clock.n_local[0] = n_own + n_local - n_move
+    clock.n_local[0] = n_own + counts[1] - n_move
     clock.n_ghost[0] = ghosts.shape[0]
     count, n_wall = -1, -1
     if written:
         clock.n_moved[0] = n_own + n_near
-        count, n_wall, _, _, _ = build_lists(ps, pairs, clock, prm, t, False, springs[0],
-                                             springs[1], springs[2], friction, ring_walls)
+        count, n_wall, _ = build_lists(ps, pairs, clock, prm, t, False, springs, plan.ring_walls)
     return err, received, (peer_at, need), (count, n_wall)
 
 
 @nb.njit(**JIT)
-def send_rows(ps, pairs, n_move, edges, rank, ghost_width, width, from_list, lo, hi, xi,
-              handles):
-    """Migrate and ghost the owned rows ps[:n_move]. Springs: the non-zero ones of the current
-    pair list if ``from_list``, else (lo, hi, xi) (a restart's). Returns ``(rbuf, recv_off,
-    owner, lo, hi, xi, mpi_error)``: the messages received, each owned row's new owner, and
-    the springs sent from."""
+def send_rows(ps, pairs, n_move, plan, from_list, history, handles):
+    """Migrate and ghost the owned rows ps[:n_move]. History: the non-zero rows of the current
+    pair list if ``from_list``, else ``history`` (lo, hi, rows; a restart's). Returns
+    ``(rbuf, recv_off, owner, history, mpi_error)``: the messages received, each owned row's
+    new owner, and the history sent from."""
+    edges, rank, ghost_width, width = plan.edges, plan.rank, plan.ghost_width, plan.width
     size = edges.size - 1
+    lo, hi, xi = history
     if from_list:
-        lo, hi, xi = live_springs(ps.gid, pairs.i, pairs.j, pairs.xi, pairs.count[0])
+        lo, hi, xi = live_history(ps.gid, pairs.i, pairs.j, pairs.hist, pairs.count[0])
     owner = owners(ps.x[:n_move], edges, rank)
     e = edge_vectors(edges)
     # rows for each destination: its migrants and its ghosts owned by someone else
@@ -141,20 +158,24 @@ def send_rows(ps, pairs, n_move, edges, rank, ghost_width, width, from_list, lo,
                 sbuf[at + 2:at + 2 + hw] = xi[k]
                 at += 2 + hw
     rbuf, recv_off, err = alltoallv(sbuf, send_off, handles)
-    return rbuf, recv_off, owner, lo, hi, xi, err
+    return rbuf, recv_off, owner, (lo, hi, xi), err
 
 
 @nb.njit(**JIT)
-def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, ghost_width,
-                 width, x_col, lo, hi, xi, t, prm, wall_margin, handles, write):
+def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, write):
     """Lay out [owned, gid-sorted | wall disks | ghosts, sorted by (owner, gid)] from the kept
-    rows and the messages of ``send_rows``, merge the migrants' springs into (lo, hi, xi), and
-    plan the per-step refresh. If ``write`` and ps is large enough, the rows are written (only
-    the ghosts if no owned row left or arrived) and the wall disks arranged (``arrange_walls``;
-    the ``idle`` last ones are placed at time t first). Returns ``(written, moved, n_near,
-    n_arrived, own, walls, ghosts, springs, halo)``: springs (lo, hi, xi), halo the
-    ``halo_buffers`` of the refresh plan. If not written, the caller stores own and walls (if
-    moved; else they are empty and ps[:n_local] stays) and ghosts."""
+    rows and the messages of ``send_rows`` (``received``: rbuf, recv_off), merge the migrants'
+    history into ``history`` (lo, hi, rows), and plan the per-step refresh. ``counts`` as in
+    exchange_rows. If ``write`` and ps is large enough, the rows are written (only the ghosts
+    if no owned row left or arrived) and the wall disks arranged (``arrange_walls``; the
+    ``idle`` last ones are placed at time t first). Returns ``(written, moved, n_near,
+    n_arrived, own, walls, ghosts, history, halo)``: halo the ``halo_buffers`` of the refresh
+    plan. If not written, the caller stores own and walls (if moved; else they are empty and
+    ps[:n_local] stays) and ghosts."""
+    n_move, n_local, idle = counts
+    rbuf, recv_off = received
+    edges, rank, ghost_width, width = plan.edges, plan.rank, plan.ghost_width, plan.width
+    lo, hi, xi = history
     size = edges.size - 1
     e = edge_vectors(edges)
     n_arr, n_gh, n_sp = 0, 0, 0
@@ -213,11 +234,11 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
         walls = np.empty((n_local - n_move, width))
         pack_particles(ps, np.arange(n_move, n_local), walls)
     if n_sp:
-        lo, hi, xi = merge_springs(lo, hi, xi, springs)
+        lo, hi, xi = merge_history(lo, hi, xi, springs)
 
     n_own = own.shape[0] if moved else n_move
-    x_own = own[:, x_col:x_col + 2] if moved else ps.x[:n_move]
-    plan = _refresh_plan(x_own, key, e, rank, ghost_width)
+    x_own = own[:, plan.x_col:plan.x_col + 2] if moved else ps.x[:n_move]
+    refresh = _refresh_plan(x_own, key, e, rank, ghost_width)
 
     n_new = n_local - n_move + n_own
     written = write and n_new + ghosts.shape[0] <= ps.gid.size
@@ -227,17 +248,16 @@ def receive_rows(ps, n_move, n_local, idle, owner, rbuf, recv_off, edges, rank, 
             unpack_particles(own, ps, 0)
             unpack_particles(walls, ps, n_own)
         unpack_particles(ghosts, ps, n_new)
-        n_near = arrange_walls(ps, n_own, n_new - idle, n_new, t, prm, edges, rank,
-                               wall_margin, width)
+        n_near = arrange_walls(ps, n_own, n_new - idle, n_new, t, prm, plan)
     return (written, moved, n_near, n_arr, own, walls, ghosts, (lo, hi, xi),
-            halo_buffers(*plan, handles[3], handles[4]))
+            halo_buffers(refresh, handles))
 
 
 @nb.njit(**JIT)
 def _refresh_plan(x_own, ghost_key, e, rank, ghost_width):
     """The per-step refresh plan: to each other rank, the owned particles (positions x_own, in
     storage order) near its sector; from it, the ghosts it owns (ghost_key: owner, gid). Returns
-    ``(nbr, send_idx, send_off, recv_off)`` as in ``mpi_native.Halo``."""
+    ``(nbr, send_idx, send_off, recv_off)`` as in ``halo.Halo``."""
     size = e.shape[0] - 1
     send = np.zeros((size, x_own.shape[0]), np.bool_)
     n_send = np.zeros(size, np.int64)
@@ -262,32 +282,18 @@ def _refresh_plan(x_own, ghost_key, e, rank, ghost_width):
 
 
 @nb.njit(**JIT)
-def merge_springs(lo, hi, xi, springs):
-    """Springs (lo, hi, xi [m, w]) joined with more springs [m', 2 + w] (rows lo, hi, the w
-    history columns), sorted by (lo, hi), duplicates dropped (a pair seen by two ranks has the
-    same history on both: same inputs, same arithmetic)."""
-    n = lo.size + springs.shape[0]
-    w = springs.shape[1] - 2
-    key = np.empty(n, np.int64)
-    vals = np.empty((n, w))
-    for k in range(lo.size):
-        key[k] = (lo[k] << SHIFT) | hi[k]
-        vals[k] = xi[k]
-    for k in range(springs.shape[0]):
-        key[lo.size + k] = (int(springs[k, 0]) << SHIFT) | int(springs[k, 1])
-        vals[lo.size + k] = springs[k, 2:]
-    order = np.argsort(key, kind="mergesort")
-    m = 0
-    for k in range(n):
-        m += k == 0 or key[order[k]] != key[order[k - 1]]
-    out_lo = np.empty(m, np.int64)
-    out_hi = np.empty(m, np.int64)
-    out_xi = np.empty((m, w))
-    q = 0
-    for k in range(n):
-        if k == 0 or key[order[k]] != key[order[k - 1]]:
-            out_lo[q] = key[order[k]] >> SHIFT
-            out_hi[q] = key[order[k]] & LOW
-            out_xi[q] = vals[order[k]]
-            q += 1
-    return out_lo, out_hi, out_xi
+def arrange_walls(ps, first, first_idle, end, t, prm, plan):
+    """At an exchange: place the idle wall disks ps[first_idle:end] at time t (the step loop
+    moved only ps[first:first_idle]), then store the wall disks ps[first:end] that are within
+    ``plan.wall_margin`` (m) of this rank's sector or inside it first. Returns how many that
+    is. One compiled call: at an exchange, every call from Python that passes the particle
+    arrays costs tens of us."""
+    place_wall_disks(ps, first_idle, end, t, prm.rings, False)
+    close = near(ps.x[first:end], plan.edges, plan.rank, plan.wall_margin)
+    n_near = int(close.sum())
+    if not close[:n_near].all():  # not yet stored near-first
+        order = np.concatenate((np.flatnonzero(close), np.flatnonzero(~close))) + first
+        rows = np.empty((order.size, plan.width))
+        pack_particles(ps, order, rows)
+        unpack_particles(rows, ps, first)
+    return n_near

@@ -1,0 +1,94 @@
+"""Contact history keyed by particle-id pairs: what survives a neighbour build, a migration and a
+checkpoint.
+
+Stage: neighbour rebuild. A pair list stores one history row per pair (``model.history_columns``:
+spring, rolling spring, eta), aligned with the list. Outside a list, the history is a sorted
+table ``(gid_lo, gid_hi, rows)``: ``live_history`` takes it from a list, ``carry_history`` puts
+it into a new list, ``merge_history`` joins tables from several ranks (LAMMPS keeps its
+``fix neigh/history`` the same way: per partner id, migrated with the atom).
+"""
+
+from __future__ import annotations
+
+import numba as nb
+import numpy as np
+
+from ..jit import JIT
+
+SHIFT, LOW = 32, (1 << 32) - 1  # a pair's sort key: (gid_lo << 32) | gid_hi; gids < 2**31
+
+
+@nb.njit(**JIT)
+def carry_history(old_lo, old_hi, old_xi, gid, pi, pj, new_xi):
+    """Copy history rows (every column) from a table keyed by (lo, hi) gids and sorted by them,
+    to the pairs (pi, pj) of a new list (local indices, gid-sorted); absent pairs start with
+    zeros."""
+    p = 0
+    n_old = old_lo.size
+    for k in range(new_xi.shape[0]):
+        lo = gid[pi[k]]
+        hi = gid[pj[k]]
+        while p < n_old and (old_lo[p] < lo or (old_lo[p] == lo and old_hi[p] < hi)):
+            p += 1
+        found = p < n_old and old_lo[p] == lo and old_hi[p] == hi
+        for c in range(new_xi.shape[1]):
+            new_xi[k, c] = old_xi[p, c] if found else 0.0
+
+
+@nb.njit(**JIT)
+def live_history(gid, pi, pj, xi, count):
+    """The non-zero history rows of a list as ``(gid_lo, gid_hi, rows [m, columns])``, in list
+    (key) order (a pair whose columns are all zero does not touch: nothing to keep)."""
+    w = xi.shape[1]
+    live = np.zeros(count, np.bool_)
+    for k in range(count):
+        for c in range(w):
+            live[k] |= xi[k, c] != 0.0
+    m = int(live.sum())
+    lo = np.empty(m, np.int64)
+    hi = np.empty(m, np.int64)
+    out = np.empty((m, w))
+    q = 0
+    for k in range(count):
+        if live[k]:
+            lo[q] = gid[pi[k]]
+            hi[q] = gid[pj[k]]
+            out[q] = xi[k]
+            q += 1
+    return lo, hi, out
+
+
+@nb.njit(**JIT)
+def merge_history(lo, hi, xi, rows):
+    """A history table (lo, hi, xi [m, w]) joined with more rows [m', 2 + w] (lo, hi, the w
+    columns), sorted by (lo, hi), duplicates dropped (a pair seen by two ranks has the same
+    history on both: same inputs, same arithmetic)."""
+    n = lo.size + rows.shape[0]
+    w = rows.shape[1] - 2
+    key = np.empty(n, np.int64)
+    vals = np.empty((n, w))
+    for k in range(lo.size):
+        key[k] = (lo[k] << SHIFT) | hi[k]
+        vals[k] = xi[k]
+    for k in range(rows.shape[0]):
+        key[lo.size + k] = (int(rows[k, 0]) << SHIFT) | int(rows[k, 1])
+        vals[lo.size + k] = rows[k, 2:]
+    order = np.argsort(key, kind="mergesort")
+    m = 0
+    for k in range(n):
+        m += k == 0 or key[order[k]] != key[order[k - 1]]
+    out_lo = np.empty(m, np.int64)
+    out_hi = np.empty(m, np.int64)
+    out_xi = np.empty((m, w))
+    q = 0
+    for k in range(n):
+        if k == 0 or key[order[k]] != key[order[k - 1]]:
+            out_lo[q] = key[order[k]] >> SHIFT
+            out_hi[q] = key[order[k]] & LOW
+            out_xi[q] = vals[order[k]]
+            q += 1
+    return out_lo, out_hi, out_xi
+
+
+NO_HISTORY = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
+"""An empty history table (gid_lo, gid_hi, rows)."""

@@ -1,0 +1,347 @@
+"""The contact model of one scene: which slots of ``laws.py`` are on (``ContactOptions``), their
+parameters (``LawParams``), the per-contact history they keep, and the composed kernels that the
+force loop calls for disk-disk pairs (``lane_contact``) and disk-ring contacts
+(``surface_contact``); also the analytic contact time and the elastic energy of a contact.
+
+Stage: force kernels. Options are compile-time constants of the step loop (a NamedTuple closed
+over by ``step.make_stepper``), so a slot that is off is compiled out: no branch per contact and
+no history column. Slots:
+
+    normal      linear spring k_n delta (eq. 1.1), always on
+    damping     viscous gamma_n delta_dot (eq. 1.2), with the integrator's entry/exit window
+    clip        no attractive normal force (off by default, as the analytic solution assumes)
+    friction    Cundall-Strack spring xi, f_t = -k_t xi, capped at mu |f_n| (eqs. 1.3-1.4)
+    tangential_damping   -gamma_t v_t added to the trial tangential force; at the cap the
+                spring keeps k_t xi = -(f_t + gamma_t v_t)
+    rolling     rolling spring xi_r (m), incremented by the rolling velocity a' (w_i - w_j),
+                f_r = -k_r xi_r capped at mu_r |f_n|; torque a' f_r on i and -a' f_r on j,
+                a' = a_i a_j / (a_i + a_j) (a_i against a ring surface)
+    eta         bookkeeping: the paper's total tangential displacement eta (eq. 1.3), the
+                spring's arithmetic without the cap; no force reads it
+
+History columns per contact, in this order (``history_columns``): the spring (2, with
+friction), the rolling spring (1, with rolling), eta (2). A pair that does not touch has all
+zero; a new contact starts from zero.
+
+Adding a slot: its kernel in laws.py, its option, parameters and columns here, its keys in
+scene.py.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import NamedTuple
+
+import numba as nb
+
+from ..jit import INLINE
+from .laws import (coulomb_limit, normal_elastic, normal_viscous, rolling_limit,
+                   spring_increment)
+
+
+class ContactOptions(NamedTuple):
+    """Which slots are compiled in (hashable; the step loop closes over it)."""
+
+    damping: bool = True
+    friction: bool = True
+    clip: bool = False
+    window: bool = True  # damping weighted at contact entry and exit ([time] integrator)
+    tangential_damping: bool = False
+    rolling: bool = False
+    eta: bool = False
+
+
+class LawParams(NamedTuple):
+    """Parameters of the law (SI): dt (s), k_n (N/m), gamma_n (kg/s), k_t (N/m), mu,
+    gamma_t (kg/s), k_r (N/m), mu_r."""
+
+    dt: float
+    k_n: float
+    gamma_n: float
+    k_t: float
+    mu: float
+    gamma_t: float = 0.0
+    k_r: float = 0.0
+    mu_r: float = 0.0
+
+
+def options_for(effects, integrator: str, eta: bool) -> ContactOptions:
+    """The options of a scene's [effects] table and [time] integrator."""
+    return ContactOptions(
+        damping=effects.normal_damping, friction=effects.tangential_friction,
+        clip=effects.clip_attractive_normal, window=integrator == "verlet",
+        tangential_damping=effects.tangential_damping, rolling=effects.rolling_resistance,
+        eta=eta)
+
+
+def law_params(contact, dt: float) -> LawParams:
+    """LawParams from a scene's [contact] table and the time step (s)."""
+    return LawParams(dt, contact.k_n, contact.gamma_n, contact.k_t, contact.mu,
+                     contact.gamma_t, contact.k_r, contact.mu_r)
+
+
+def history_columns(o: ContactOptions) -> tuple[str, ...]:
+    """Names of the history columns, in storage order."""
+    return ((("spring_x", "spring_y") if o.friction else ()) + (("rolling",) if o.rolling else ())
+            + (("eta_x", "eta_y") if o.eta else ()))
+
+
+@nb.njit(**INLINE)
+def history_width(o):
+    return (2 if o.friction else 0) + (1 if o.rolling else 0) + (2 if o.eta else 0)
+
+
+@nb.njit(**INLINE)
+def rolling_column(o):
+    return 2 if o.friction else 0
+
+
+@nb.njit(**INLINE)
+def eta_column(o):
+    return (2 if o.friction else 0) + (1 if o.rolling else 0)
+
+
+# ----------------------------------------------------------------- the composed law
+
+@nb.njit(**INLINE)
+def contact_law(n, delta, v, spring, xr, a_red, w, law, o, defer):
+    """``-> (fn, ftx, fty, fr, xix, xiy, xr, flag)`` for a contact with unit normal n = (nx, ny),
+    overlap delta (m; <= 0: within half a step of touching, which gets only its share of the
+    damping) and contact-point velocity v = (vx, vy) (m/s). ``spring`` = (xix, xiy) and xr
+    (the rolling spring) are the histories before this step; the returned ones are updated.
+    a_red (m): the reduced radius a'; w = (w_i, w_j): the spins. f_r (N) is the rolling
+    resistance (a' f_r is its torque on i). ``flag``: sliding, or (with ``defer``) a
+    deferred branch was needed and the contact must be redone without ``defer``."""
+    cl_nx, cl_ny = n
+    cl_vx, cl_vy = v
+    cl_xix, cl_xiy = spring
+    cl_xr = xr
+    cl_vn = cl_vx * cl_nx + cl_vy * cl_ny  # = -delta_dot
+    cl_redo = False
+    cl_fn = normal_elastic(delta, law.k_n)
+    if o.damping:
+        cl_damp, cl_redo = normal_viscous(delta, cl_vn, law, o.window, defer)
+        cl_fn -= cl_damp
+    if o.clip:
+        cl_fn = max(cl_fn, 0.0)
+    if not (o.friction or o.rolling):
+        return cl_fn, 0.0, 0.0, 0.0, cl_xix, cl_xiy, cl_xr, cl_redo
+    if delta <= 0.0:  # within reach of a contact, not touching: no springs
+        return cl_fn, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, cl_redo
+    cl_ftx, cl_fty, cl_fr, cl_sliding = 0.0, 0.0, 0.0, False
+    if o.friction:
+        cl_xix, cl_xiy = spring_increment(cl_xix, cl_xiy, cl_nx, cl_ny, cl_vx, cl_vy, cl_vn, law.dt)
+        cl_ftx = -law.k_t * cl_xix
+        cl_fty = -law.k_t * cl_xiy
+        if o.tangential_damping:
+            cl_vtx = cl_vx - cl_vn * cl_nx
+            cl_vty = cl_vy - cl_vn * cl_ny
+            cl_ftx -= law.gamma_t * cl_vtx
+            cl_fty -= law.gamma_t * cl_vty
+        cl_ftx, cl_fty, cl_sliding, cl_again = coulomb_limit(cl_ftx, cl_fty, cl_fn, law.mu,
+                                                             defer)
+        cl_redo = cl_redo or cl_again
+        if cl_sliding:  # the spring holds what the cap allows
+            if o.tangential_damping:
+                cl_xix = -(cl_ftx + law.gamma_t * cl_vtx) / law.k_t
+                cl_xiy = -(cl_fty + law.gamma_t * cl_vty) / law.k_t
+            else:
+                cl_xix = -cl_ftx / law.k_t
+                cl_xiy = -cl_fty / law.k_t
+    if o.rolling:
+        cl_wi, cl_wj = w
+        cl_xr = cl_xr + a_red * (cl_wi - cl_wj) * law.dt
+        cl_fr, cl_rcap = rolling_limit(-law.k_r * cl_xr, cl_fn, law.mu_r)
+        cl_xr = -cl_fr / law.k_r if cl_rcap else cl_xr
+    return cl_fn, cl_ftx, cl_fty, cl_fr, cl_xix, cl_xiy, cl_xr, cl_sliding or cl_redo
+
+
+@nb.njit(**INLINE)
+def pair_force(d, a, dv, w, spring, xr, reach, law, o, defer):
+    """Disk-disk contact. d = r_i - r_j, a = (a_i, a_j) radii, dv = v_i - v_j, w = (w_i, w_j)
+    spins; spring and xr: the histories (contact_law); reach (m) bounds how far any overlap
+    can change in half a step (pairs that close get their share of damping). Returns
+    ``(active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, flag)``: force on i (j gets
+    -f), torques on i and j, the normal and tangential force on i, the updated histories and
+    contact_law's flag. Swapping i and j negates the force bit for bit (every operation is
+    odd in the swap)."""
+    pf_dx, pf_dy = d
+    pf_ai, pf_aj = a
+    pf_dvx, pf_dvy = dv
+    pf_wi, pf_wj = w
+    pf_r2 = pf_dx * pf_dx + pf_dy * pf_dy
+    pf_rs = pf_ai + pf_aj
+    pf_lim = pf_rs + reach if o.damping and o.window else pf_rs
+    if pf_r2 >= pf_lim * pf_lim:
+        return (False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False)
+    pf_dist = math.sqrt(pf_r2)
+    pf_inv = 1.0 / pf_dist
+    pf_nx = pf_dx * pf_inv
+    pf_ny = pf_dy * pf_inv
+    pf_delta = pf_rs - pf_dist
+    pf_s = pf_ai * pf_wi + pf_aj * pf_wj
+    pf_ared = pf_ai * pf_aj / pf_rs if o.rolling else 0.0
+    # v_ij = dv - s (z x n), with z x n = (-ny, nx)
+    pf_fn, pf_ftx, pf_fty, pf_fr, pf_xix, pf_xiy, pf_xr, pf_flag = contact_law(
+        (pf_nx, pf_ny), pf_delta, (pf_dvx + pf_s * pf_ny, pf_dvy - pf_s * pf_nx), spring, xr,
+        pf_ared, w, law, o, defer)
+    # torque of f_t about each centre, lever (a - delta/2) along -n for i and +n for j
+    pf_nxft = pf_nx * pf_fty - pf_ny * pf_ftx
+    pf_ti = -(pf_ai - 0.5 * pf_delta) * pf_nxft
+    pf_tj = -(pf_aj - 0.5 * pf_delta) * pf_nxft
+    if o.rolling:
+        pf_ti += pf_ared * pf_fr
+        pf_tj -= pf_ared * pf_fr
+    return (True, pf_fn * pf_nx + pf_ftx, pf_fn * pf_ny + pf_fty, pf_ti, pf_tj, pf_fn, pf_ftx,
+            pf_fty, pf_xix, pf_xiy, pf_xr, pf_flag)
+
+
+@nb.njit(**INLINE)
+def pair_eta(d, a, dv, w, eta, dt):
+    """The paper's eta (eq. 1.3) of a disk-disk pair after one step, with pair_force's geometry
+    (arguments as there; eta = (ex, ey) before the step): the spring's arithmetic without the
+    cap, so it equals the spring bit for bit until the contact first slides; (0, 0) unless the
+    disks overlap (a new contact starts from zero). Selects, not branches, so that the batched
+    pair loop stays vectorised."""
+    pd_dx, pd_dy = d
+    pd_ai, pd_aj = a
+    pd_wi, pd_wj = w
+    pd_dist = math.sqrt(pd_dx * pd_dx + pd_dy * pd_dy)
+    pd_inv = 1.0 / pd_dist
+    pd_nx = pd_dx * pd_inv
+    pd_ny = pd_dy * pd_inv
+    pd_s = pd_ai * pd_wi + pd_aj * pd_wj
+    pd_vx = dv[0] + pd_s * pd_ny
+    pd_vy = dv[1] - pd_s * pd_nx
+    pd_vn = pd_vx * pd_nx + pd_vy * pd_ny
+    pd_ex, pd_ey = spring_increment(eta[0], eta[1], pd_nx, pd_ny, pd_vx, pd_vy, pd_vn, dt)
+    pd_on = pd_ai + pd_aj - pd_dist > 0.0
+    return (pd_ex if pd_on else 0.0), (pd_ey if pd_on else 0.0)
+
+
+# ----------------------------------------------------------------- the batched pair loop's lanes
+
+BATCH = 64  # pairs per batch of the force loop: its work rows stay in L1
+# Rows of the work array (each BATCH lanes): the inputs gathered per pair, the outputs, the
+# lanes to redo, then the history: W_HIST + c in, W_HIST + width + c out.
+(W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_ACT, W_FX, W_FY, W_TI, W_TJ, W_FN, W_FTX,
+ W_FTY, W_REDO, W_LANE, W_HIST) = range(19)
+
+
+@nb.njit(**INLINE)
+def work_size(o):
+    return (W_HIST + 2 * history_width(o)) * BATCH
+
+
+@nb.njit(**INLINE)
+def lane_contact(work, lane, reach, law, o, defer):
+    """pair_force on one lane of the work rows: outputs and updated history written back
+    there; returns ``(active, flagged)`` (flagged: deferred, redo without ``defer``)."""
+    lc_hw = history_width(o)
+    lc_in = W_HIST * BATCH + lane
+    lc_out = (W_HIST + lc_hw) * BATCH + lane
+    if o.eta and defer:  # bookkeeping, independent of the deferred branches: once per pair
+        lc_e = eta_column(o) * BATCH
+        lc_ex, lc_ey = pair_eta(
+            (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
+            (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
+            (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
+            (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]),
+            (work[lc_in + lc_e], work[lc_in + lc_e + BATCH]), law.dt)
+        work[lc_out + lc_e] = lc_ex
+        work[lc_out + lc_e + BATCH] = lc_ey
+    lc_xix = work[lc_in] if o.friction else 0.0
+    lc_xiy = work[lc_in + BATCH] if o.friction else 0.0
+    lc_xr = work[lc_in + rolling_column(o) * BATCH] if o.rolling else 0.0
+    (lc_act, lc_fxl, lc_fyl, lc_til, lc_tjl, lc_fnl, lc_ftxl, lc_ftyl, lc_xoxl, lc_xoyl, lc_xrl,
+     lc_again) = pair_force(
+        (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
+        (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
+        (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
+        (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]), (lc_xix, lc_xiy), lc_xr, reach,
+        law, o, defer)
+    work[W_FX * BATCH + lane] = lc_fxl
+    work[W_FY * BATCH + lane] = lc_fyl
+    work[W_TI * BATCH + lane] = lc_til
+    work[W_TJ * BATCH + lane] = lc_tjl
+    work[W_FN * BATCH + lane] = lc_fnl
+    work[W_FTX * BATCH + lane] = lc_ftxl
+    work[W_FTY * BATCH + lane] = lc_ftyl
+    if o.friction:
+        work[lc_out] = lc_xoxl
+        work[lc_out + BATCH] = lc_xoyl
+    if o.rolling:
+        work[lc_out + rolling_column(o) * BATCH] = lc_xrl
+    return lc_act, lc_again
+
+
+# ----------------------------------------------------------------- contacts with a surface
+
+@nb.njit(**INLINE)
+def surface_contact(n, delta, a, v, w, hist, i, law, o):
+    """A free disk (radius a) against an infinitely massive surface (a ring): unit normal
+    n = (nx, ny) from the surface to the disk, overlap delta, contact-point velocity
+    v = (vx, vy) relative to the surface, w = (disk spin, surface spin). Reads and updates
+    row i of ``hist`` (the disk's surface-contact history, ``history_columns``); returns
+    ``(fn, ftx, fty, torque)`` on the disk. Reduced radius a' = a (the surface's curvature
+    is ignored)."""
+    sc_nx, sc_ny = n
+    sc_vx, sc_vy = v
+    sc_xix = hist[i, 0] if o.friction else 0.0
+    sc_xiy = hist[i, 1] if o.friction else 0.0
+    sc_xr = hist[i, rolling_column(o)] if o.rolling else 0.0
+    sc_fn, sc_ftx, sc_fty, sc_fr, sc_xix, sc_xiy, sc_xr, _ = contact_law(
+        n, delta, v, (sc_xix, sc_xiy), sc_xr, a, w, law, o, False)
+    if o.friction:
+        hist[i, 0] = sc_xix
+        hist[i, 1] = sc_xiy
+    if o.rolling:
+        hist[i, rolling_column(o)] = sc_xr
+    if o.eta:
+        sc_c = eta_column(o)
+        sc_ex, sc_ey = 0.0, 0.0
+        if delta > 0.0:
+            sc_vn = sc_vx * sc_nx + sc_vy * sc_ny
+            sc_ex, sc_ey = spring_increment(hist[i, sc_c], hist[i, sc_c + 1], sc_nx, sc_ny,
+                                            sc_vx, sc_vy, sc_vn, law.dt)
+        hist[i, sc_c] = sc_ex
+        hist[i, sc_c + 1] = sc_ey
+    sc_torque = -(a - 0.5 * delta) * (sc_nx * sc_fty - sc_ny * sc_ftx)
+    if o.rolling:
+        sc_torque += a * sc_fr
+    return sc_fn, sc_ftx, sc_fty, sc_torque
+
+
+# ----------------------------------------------------------------- analytic properties
+
+def damped_frequency(k_n: float, gamma_n: float, m_red: float) -> float:
+    """omega (rad/s) of the damped normal spring: omega^2 = k_n/m_red - eta^2 with eta =
+    gamma_n/(2 m_red). ValueError when overdamped (a contact never ends)."""
+    eta = gamma_n / (2.0 * m_red)
+    w2 = k_n / m_red - eta * eta
+    if not w2 > 0:
+        raise ValueError(f"overdamped: gamma_n/(2 m_red) = {eta:.4g} 1/s >= sqrt(k_n/m_red) = "
+                         f"{math.sqrt(k_n / m_red):.4g} 1/s")
+    return math.sqrt(w2)
+
+
+def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
+    """t_c = pi/omega (s) of the damped normal spring (SPEC §3)."""
+    return math.pi / damped_frequency(k_n, gamma_n, m_red)
+
+
+def restitution(k_n: float, gamma_n: float, m_red: float) -> float:
+    """Normal restitution e_n = exp(-pi eta/omega) of the damped normal spring."""
+    return math.exp(-math.pi * gamma_n / (2.0 * m_red) / damped_frequency(k_n, gamma_n, m_red))
+
+
+@nb.njit(**INLINE)
+def elastic_energy(delta, hist, k, law, o):
+    """Energy (J) stored in a contact with overlap delta and history row k of ``hist``: the
+    normal spring, the tangential spring and the rolling spring."""
+    ee_sum = 0.5 * law.k_n * delta * delta if delta > 0.0 else 0.0
+    if delta > 0.0 and o.friction:
+        ee_sum += 0.5 * law.k_t * (hist[k, 0] ** 2 + hist[k, 1] ** 2)
+    if delta > 0.0 and o.rolling:
+        ee_sum += 0.5 * law.k_r * hist[k, rolling_column(o)] ** 2
+    return ee_sum

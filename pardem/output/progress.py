@@ -1,0 +1,55 @@
+"""The run's log (DIR/log.txt) and progress line (stderr), and the per-stage time breakdown.
+
+Stage: output (rank 0 only). The log is opened and closed for every line, so a crash loses
+nothing already logged; a restart appends to the same log.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import time
+from pathlib import Path
+
+
+def log_line(out_dir: Path | None, text: str) -> None:
+    """Append a time-stamped line to out_dir/log.txt (nothing without a folder)."""
+    if out_dir is None:
+        return
+    stamp = time.strftime("%Y-%m-%d %H:%M:%S")
+    out_dir.mkdir(parents=True, exist_ok=True)
+    with open(out_dir / "log.txt", "a") as f:
+        f.write(f"{stamp} {text}\n")
+
+
+def progress_line(sim, wall0: float, step0: int, end_step: int, e_kin: float,
+                  overlap: float) -> str:
+    """Simulated time, rate, ETA, kinetic energy and largest overlap of a running Simulation."""
+    step = sim.step
+    elapsed = time.perf_counter() - wall0
+    rate = (step - step0) / elapsed if elapsed > 0 else 0.0
+    eta = (end_step - step) / rate if rate > 0 else math.inf
+    return (f"t = {sim.time:9.3f} / {end_step * sim.dt:.3f} s | {rate:9.0f} steps/s | "
+            f"{rate * sim.n_free / 1e6:6.2f} M particle-steps/s | ETA {eta:7.1f} s | "
+            f"E_kin {e_kin:.3e} J | max overlap {100 * overlap:.2f}% d")
+
+
+def show_progress(line: str) -> None:
+    sys.stderr.write("\r" + line + " ")
+    sys.stderr.flush()
+
+
+def breakdown(sim) -> str:
+    """Wall time per stage on this rank, with the waiting on neighbours under MPI."""
+    d = sim.decomp
+    total = sum(sim.timers.values()) or 1.0
+    rows = [f"  {k:<20s} {v:9.3f} s  {100 * v / total:5.1f} %" for k, v in sim.timers.items()]
+    if d.parallel:  # part of forces+integration
+        wait = float(d.wait[0])
+        rows.insert(1, f"    of which waiting on neighbours {wait:9.3f} s  "
+                       f"{100 * wait / total:5.1f} % (exchange latency + imbalance)")
+    builds = f"{sim.n_rebuilds} neighbour builds"
+    if d.parallel:
+        builds += f", {d.n_exchanges} of them with an exchange"
+    return "\n".join([f"time per stage on rank {d.rank} ({sim.step} steps, {builds}; "
+                      f"{d.describe()}):", *rows])

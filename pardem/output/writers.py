@@ -1,0 +1,111 @@
+"""Writers fired by triggers between the compiled chunks of a run: snapshots, checkpoints, ring
+samples. A writer never changes the state; the run loop (``Simulation.run``) asks each for its
+next step, advances to the earliest, and fires the ones that are due, in the order listed.
+
+Stage: output. Triggers are exact step numbers (time = step * dt), so the same states are
+written on any number of ranks and after any restart.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+
+class Every:
+    """Every ``period`` steps (the multiples of it)."""
+
+    def __init__(self, period: int):
+        self.period = max(1, int(period))
+
+    def next_after(self, step: int) -> int:
+        return (step // self.period + 1) * self.period
+
+    def due(self, step: int) -> bool:
+        return step % self.period == 0
+
+
+class At:
+    """At the given steps (ascending)."""
+
+    def __init__(self, steps: np.ndarray):
+        self.steps = np.asarray(steps, np.int64)
+        self._set = set(self.steps.tolist())
+
+    def next_after(self, step: int) -> int:
+        k = np.searchsorted(self.steps, step, side="right")
+        return int(self.steps[k]) if k < self.steps.size else math.inf
+
+    def due(self, step: int) -> bool:
+        return step in self._set
+
+
+class Writer:
+    """``trigger`` decides when; ``write(sim)`` writes (collective under MPI); ``close(sim)``
+    at the end of a run; ``stage``: the timer it is counted in."""
+
+    stage = "output"
+
+    def __init__(self, trigger):
+        self.trigger = trigger
+
+    def write(self, sim) -> None:
+        raise NotImplementedError
+
+    def close(self, sim) -> None:
+        pass
+
+
+class Snapshots(Writer):
+    """Particle and contact snapshots (``Simulation.write_snapshot``); the final state too if
+    it is off the snapshot grid."""
+
+    stage = "snapshots"
+
+    def write(self, sim) -> None:
+        sim.write_snapshot()
+
+    def close(self, sim) -> None:
+        if not self.trigger.due(sim.step):
+            sim.write_snapshot()
+
+
+class Checkpoints(Writer):
+    """Checkpoints (``Simulation.write_checkpoint``), and one at the end of every run."""
+
+    stage = "checkpoints"
+
+    def write(self, sim) -> None:
+        sim.write_checkpoint()
+
+    def close(self, sim) -> None:
+        sim.write_checkpoint()
+
+
+class RingSamples(Writer):
+    """In-situ ring averaging: one sample at each trigger step (collective: one Allreduce);
+    rings.h5/.csv/.vtu written at the end (rank 0)."""
+
+    stage = "averaging"
+
+    def __init__(self, trigger, averager, out_dir):
+        super().__init__(trigger)
+        self.averager = averager
+        self.out_dir = out_dir
+
+    def write(self, sim) -> None:
+        self.averager.sample(sim)
+
+    def close(self, sim) -> None:
+        if self.out_dir is not None and self.averager.samples and sim.decomp.rank == 0:
+            self.averager.write(self.out_dir)
+
+
+def sample_steps(start: float, end: float, interval: float, dt: float) -> np.ndarray:
+    """Steps k * every (every = round(interval/dt)) for k from round(start/(every dt)) to
+    round(end/(every dt)): evenly spaced samples that coincide with snapshots of that interval."""
+    every = max(1, int(round(interval / dt)))
+    k0 = int(round(start / (every * dt)))
+    k1 = int(round(end / (every * dt))) if math.isfinite(end) else k0 - 1
+    return every * np.arange(k0, k1 + 1, dtype=np.int64)

@@ -1,0 +1,60 @@
+"""Everything that talks MPI: the angular sectors (``sectors``), the decomposition with its
+collectives (``comm``, mpi4py), the compiled exchange of migrants and ghosts (``exchange``), the
+per-step ghost refresh (``halo``, ``refresh``) and libmpi itself (``native``).
+
+On one rank nothing here loads MPI: ``decomposition`` returns a ``SerialDecomposition`` and the
+step loop is compiled without a ghost refresh. ``world()`` gives COMM_WORLD only when the
+process was started by an MPI launcher with more than one rank.
+"""
+
+from __future__ import annotations
+
+import os
+
+from .serial import SerialDecomposition
+
+# rank-count variables that MPI launchers set (MPICH/Hydra, Open MPI, PMIx, Slurm)
+_SIZE_VARIABLES = ("PMI_SIZE", "OMPI_COMM_WORLD_SIZE", "PMIX_SIZE", "MPI_LOCALNRANKS",
+                   "SLURM_NTASKS")
+
+# Ghosts are selected this many skins wider than an interaction needs, so that most builds
+# keep the ghosts and owners and only rebuild the lists locally (comm.Decomposition.exchange_due).
+GHOST_MARGIN_SKINS = 4.0
+
+
+def launched_ranks() -> int:
+    """How many ranks the launcher started (1 if none says more)."""
+    for name in _SIZE_VARIABLES:
+        try:
+            n = int(os.environ.get(name, "1"))
+        except ValueError:
+            continue
+        if n > 1:
+            return n
+    return 1
+
+
+def world():
+    """MPI COMM_WORLD if this process is one of several ranks, else None (MPI not loaded)."""
+    if launched_ranks() <= 1:
+        return None
+    from mpi4py import MPI
+
+    return MPI.COMM_WORLD if MPI.COMM_WORLD.Get_size() > 1 else None
+
+
+def decomposition(comm, reach_width: float, inner_radius: float = 0.0, margin: float = 0.0):
+    """The decomposition of a run on the ranks of ``comm`` (None or one rank: serial).
+    reach_width (m): the farthest a listed partner can be (largest diameter + skin); margin
+    (m): extra ghost width (GHOST_MARGIN_SKINS skins)."""
+    if comm is None or comm.Get_size() == 1:
+        return SerialDecomposition(reach_width, margin)
+    from .comm import Decomposition
+
+    return Decomposition(comm, reach_width, inner_radius, margin=margin)
+
+
+def abort(comm, code: int = 1) -> None:
+    """End every rank of ``comm`` (after an error on this one), so none waits forever."""
+    if comm is not None and comm.Get_size() > 1:
+        comm.Abort(code)

@@ -1,0 +1,220 @@
+"""The checks of a scene: every table's keys, kinds, units, defaults and allowed values, and the
+assembly of a validated ``Scene`` from a dict in the TOML layout (``scene_from_dict``).
+
+Stage: input. Defaults come from the dataclasses of ``scene.py`` (one source); each check
+raises ``SceneError`` naming the ``[table] key``, its value and what is allowed.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+import numbers
+from dataclasses import MISSING
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from .particles_input import check_particles, particles_from_file, particles_from_tables
+from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
+                    SceneError, SceneInfo, Species, TimeCfg)
+from .values import AUTO, BOOL, FLOAT, INT, INT_AUTO, REQ, STR, fail, rule_ok, show, value
+
+
+def _schema(cls: type, spec: dict[str, tuple[str, str, str]],
+            defaults: dict[str, Any] | None = None) -> dict[str, tuple[str, Any, str, str]]:
+    """key -> (kind, default, unit, rule); defaults come from the dataclass (single source)."""
+    dflt = {f.name: REQ if f.default is MISSING else f.default for f in dataclasses.fields(cls)}
+    dflt.update(defaults or {})
+    return {k: (kind, dflt[k], unit, rule) for k, (kind, unit, rule) in spec.items()}
+
+
+_TABLES: dict[str, dict[str, tuple[str, Any, str, str]]] = {
+    "scene": _schema(SceneInfo, {"name": (STR, "", ""), "kind": (STR, "", "couette|free"),
+                                 "seed": (INT, "", ">=0")}, {"name": None}),
+    "geometry": _schema(Geometry, {
+        "inner_radius": (FLOAT, "m", ">0"), "outer_radius": (FLOAT, "m", ""),
+        "outer_start_radius": (FLOAT, "m", ""), "compression_time": (FLOAT, "s", ">=0"),
+        "omega_inner": (FLOAT, "rad/s", ""), "wall_particle_diameter": (FLOAT, "m", ">0"),
+        "wall_particle_spacing": (FLOAT, "m", ">0"),
+        **{f"{ring}_{key}": spec for ring in ("inner", "outer") for key, spec in (
+            ("wall_count", (INT_AUTO, "", ">=0")), ("wall_diameter", (AUTO, "m", ">0")),
+            ("flat_surface", (BOOL, "", "")))}}),
+    "species": _schema(Species, {"name": (STR, "", ""), "diameter": (FLOAT, "m", ">0"),
+                                 "mass": (FLOAT, "kg", ">0"), "count": (INT, "", ">=0")}),
+    "contact": _schema(Contact, {
+        "k_n": (FLOAT, "N/m", ">0"), "gamma_n": (FLOAT, "kg/s", ">=0"),
+        "k_t": (FLOAT, "N/m", ">=0"), "mu": (FLOAT, "", ">=0"), "mu_bottom": (FLOAT, "", ">=0"),
+        "gravity": (FLOAT, "m/s^2", ">0"), "height": (FLOAT, "m", ">0"),
+        "gamma_t": (FLOAT, "kg/s", ">=0"), "k_r": (FLOAT, "N/m", ">=0"),
+        "mu_r": (FLOAT, "", ">=0")}),
+    "effects": _schema(Effects, {f.name: (BOOL, "", "") for f in dataclasses.fields(Effects)}),
+    "time": _schema(TimeCfg, {"dt": (AUTO, "s", ">0"), "dt_per_contact": (FLOAT, "", ">=5"),
+                              "end": (FLOAT, "s", ">0"),
+                              "integrator": (STR, "", "verlet|verlet-halfstep")}),
+    "neighbors": _schema(Neighbors, {"skin": (AUTO, "m", ">0")}),
+    "output": _schema(OutputCfg, {"snapshot_interval": (FLOAT, "s", ">0"),
+                                  "checkpoint_interval": (FLOAT, "s", ">0"),
+                                  "contacts": (BOOL, "", "")}),
+    "averaging": _schema(AveragingCfg, {
+        "start": (FLOAT, "s", ">=0"), "end": (FLOAT, "s", ""),
+        "sample_interval": (FLOAT, "s", ">0"),
+        "ring_width": (FLOAT, "m", ">0"), "weighting": (STR, "", "slice|exact|centre|gaussian"),
+        "reference_diameter": (AUTO, "m", ">0"), "displacement": (STR, "", "eta|spring")}),
+}
+_TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "contact", "effects",
+             "time", "neighbors", "output", "averaging")
+
+
+def _parse(raw: Any, table: str, label: str) -> dict[str, Any]:
+    """Check one table against its schema; returns every key with defaults filled in."""
+    if not isinstance(raw, dict):
+        raise SceneError(f"{label}: expected a table, got {show(raw)}")
+    schema = _TABLES[table]
+    for key in raw:
+        if key not in schema:
+            raise SceneError(f"{label} unknown key {key!r}; allowed: {', '.join(schema)}")
+    out: dict[str, Any] = {}
+    for key, (kind, default, unit, rule) in schema.items():
+        if key not in raw:
+            if default is REQ:
+                raise SceneError(f"{label} {key}: missing (required)")
+            out[key] = default
+            continue
+        v = out[key] = value(label, key, raw[key], kind, unit)
+        if rule and v is not None:
+            ok, why = rule_ok(v, rule)
+            if not ok:
+                raise fail(label, key, raw[key], why, unit)
+    return out
+
+
+def _check_slots(c: dict[str, Any], e: dict[str, Any]) -> None:
+    """The parameters each switched-on contact slot needs (contact.model)."""
+    if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
+        raise fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
+                   "tangential_friction is on and mu > 0", "N/m")
+    if e["tangential_damping"]:
+        if not e["tangential_friction"]:
+            raise fail("[effects]", "tangential_damping", True, "needs [effects] "
+                       "tangential_friction = true (it damps the tangential spring)")
+        if not c["gamma_t"] > 0:
+            raise fail("[contact]", "gamma_t", c["gamma_t"], "must be > 0 when [effects] "
+                       "tangential_damping is on", "kg/s")
+    elif c["gamma_t"] != 0:
+        raise fail("[contact]", "gamma_t", c["gamma_t"], "is set but [effects] "
+                   "tangential_damping is off; switch it on or remove gamma_t", "kg/s")
+    if e["rolling_resistance"]:
+        if not e["rotation"]:
+            raise fail("[effects]", "rolling_resistance", True, "needs [effects] rotation = "
+                       "true (it resists the disks' relative rotation)")
+        if not c["k_r"] > 0:
+            raise fail("[contact]", "k_r", c["k_r"], "must be > 0 when [effects] "
+                       "rolling_resistance is on", "N/m")
+    elif c["k_r"] != 0 or c["mu_r"] != 0:
+        key = "k_r" if c["k_r"] != 0 else "mu_r"
+        raise fail("[contact]", key, c[key], "is set but [effects] rolling_resistance is off; "
+                   f"switch it on or remove {key}", "N/m" if key == "k_r" else "")
+
+
+def _table_list(raw: Any, name: str) -> list[Any]:
+    if not isinstance(raw, list) or not raw:
+        raise SceneError(f"[[{name}]]: expected a non-empty array of tables")
+    return raw
+
+
+def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
+                    source: str | None = None) -> Scene:
+    """Validate a dict in the TOML layout (as tomllib returns it) and build a Scene.
+    ``base_dir`` resolves a relative ``particles_file``."""
+    if not isinstance(d, dict):
+        raise SceneError(f"scene: expected a table, got {show(d)}")
+    for key in d:
+        if key not in _TOP_KEYS:
+            raise SceneError(f"unknown top-level table or key {key!r}; allowed: "
+                             f"{', '.join(_TOP_KEYS)}")
+    if "scene" not in d:
+        raise SceneError('[scene] table missing (required, with kind = "couette" or "free")')
+    info = _parse(d["scene"], "scene", "[scene]")
+    if info["name"] is None:
+        info["name"] = Path(source).stem if source else "scene"
+    kind = info["kind"]
+    opt = {t: _parse(d.get(t, {}), t, f"[{t}]")
+           for t in ("contact", "effects", "time", "neighbors", "output")}
+    c, e = opt["contact"], opt["effects"]
+    _check_slots(c, e)
+    averaging = None
+    if "averaging" in d:
+        a = _parse(d["averaging"], "averaging", "[averaging]")
+        if not a["end"] > a["start"]:
+            raise fail("[averaging]", "end", a["end"], f"must be > start = {a['start']!r}", "s")
+        averaging = AveragingCfg(**a)
+    geometry, species, particles = None, (), None
+    if kind == "couette":
+        if "particles" in d or "particles_file" in d:
+            which = "[[particles]]" if "particles" in d else "particles_file"
+            raise SceneError(f"{which}: not allowed in a couette scene (particles are placed "
+                             "randomly from [[species]])")
+        if "species" not in d:
+            raise SceneError("[[species]] missing: a couette scene needs at least one species")
+        species = _species(_table_list(d["species"], "species"))
+        geometry = _geometry(_parse(d.get("geometry", {}), "geometry", "[geometry]"), species)
+    else:
+        for t in ("species", "geometry"):
+            if t in d:
+                name = "[[species]]" if t == "species" else "[geometry]"
+                raise SceneError(f"{name}: not allowed in a free scene (explicit particles, "
+                                 "no rings)")
+        if "particles" in d and "particles_file" in d:
+            raise SceneError("[[particles]] and particles_file: give one or the other, not both")
+        if "particles" in d:
+            cols = particles_from_tables(_table_list(d["particles"], "particles"))
+            particles = check_particles(cols, "[[particles]]")
+        elif "particles_file" in d:
+            cols = particles_from_file(d["particles_file"], Path(base_dir))
+            particles = check_particles(cols, f"particles_file = {d['particles_file']!r} row")
+        else:
+            raise SceneError("[[particles]] missing: a free scene needs [[particles]] tables "
+                             "or particles_file")
+    return Scene(SceneInfo(**info), geometry, species, particles, Contact(**c), Effects(**e),
+                 TimeCfg(**opt["time"]), Neighbors(**opt["neighbors"]),
+                 OutputCfg(**opt["output"]), averaging, source)
+
+
+def _species(rows: list[Any]) -> tuple[Species, ...]:
+    out = tuple(Species(**_parse(r, "species", f"[[species]] #{i}")) for i, r in enumerate(rows))
+    seen: set[str] = set()
+    for i, s in enumerate(out):
+        if s.name in seen:
+            raise fail(f"[[species]] #{i}", "name", s.name, "duplicate species name")
+        seen.add(s.name)
+    if sum(s.count for s in out) < 1:
+        raise SceneError("[[species]] count: total count must be >= 1")
+    return out
+
+
+def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
+    ri, ro = g["inner_radius"], g["outer_radius"]
+    if not ro > ri:
+        raise fail("[geometry]", "outer_radius", ro,
+                    f"must be > inner_radius = {ri!r} (R_o <= R_i)", "m")
+    if g["outer_start_radius"] < ro:
+        raise fail("[geometry]", "outer_start_radius", g["outer_start_radius"],
+                    f"outer start radius below the final radius outer_radius = {ro!r}", "m")
+    big = max(species, key=lambda s: s.diameter)
+    if not ro - ri > big.diameter:
+        raise SceneError(f"[geometry] outer_radius - inner_radius = {ro - ri:.6g} m: the annulus "
+                         f"gap must be larger than the largest diameter {big.diameter!r} m "
+                         f"([[species]] {big.name!r})")
+    geometry = Geometry(**g)
+    from .walls import check_layout  # walls builds on scene types; imported here, not at the top
+
+    small = min(s.diameter for s in species if s.count > 0)
+    for ring in ("inner", "outer"):
+        why = check_layout(geometry, ring, small)
+        if why is not None:
+            key, value, text = why
+            raise fail("[geometry]", key, value, text)
+    return geometry
+

@@ -1,0 +1,115 @@
+"""The time-step loop: velocity Verlet with contact forces, compiled once per set of effects.
+
+Stage: integration. ``make_stepper(options)`` returns a ``Stepper`` of jitted functions that run
+many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
+
+    half kick   v += dt/2 f/m, w += dt/2 tau/I                           (integrate.kick)
+    drift       x += dt v, theta += dt w;  rings and wall disks moved to t + dt;
+                predict v(t+dt) = v + dt/2 f(t)/m for the velocity-dependent forces
+                                                                         (integrate.drift)
+    ghosts      under MPI: neighbours' boundary particles refreshed (x, v_pred, w_pred), and
+                every rank learns the global largest displacement and speed
+                                                                    (parallel.refresh_ghosts)
+    (stop here and return NEED_REBUILD if a pair not in the list could now be within reach
+     of touching: largest displacement since the last neighbour build + half the distance
+     the fastest body covers in a step > skin/2; the caller rebuilds the list and calls
+     ``advance`` again, which resumes)
+    forces      pair contacts in canonical pair order, then flat ring contacts (forces.py)
+    half kick   (then bottom friction)
+
+Time is ``step * dt`` (never accumulated). Reads/writes: Particles, Pairs, Clock; reads Params,
+the ghost-refresh plan (None on one rank: no MPI code is compiled in).
+
+``StepOptions`` (hashable) is closed over by ``advance``: its switches are compile-time
+constants there, so a disabled effect is compiled out, and numba's disk cache serves the
+kernels to later processes (the closure holds only plain values; a closure over another
+jitted function would get a new cache key in every process).
+"""
+
+from __future__ import annotations
+
+import functools
+import math
+from typing import Callable, NamedTuple
+
+import numba as nb
+import numpy as np
+
+from .contact.model import ContactOptions, work_size
+from .forces import contact_forces
+from .integrate import drift, kick
+from .jit import JIT
+from .parallel.refresh import refresh_ghosts
+
+OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED = 0, 1, 2, 3
+
+
+class StepOptions(NamedTuple):
+    """Compile-time switches of one scene. ``walls``: Couette rings are present. ``predict``:
+    velocity-dependent forces use v + dt/2 a (else the half-step v); the integrator ([time]
+    integrator) sets it together with ``contact.window``."""
+
+    contact: ContactOptions = ContactOptions()
+    rotation: bool = True
+    bottom_friction: bool = True
+    walls: bool = True
+    predict: bool = True
+
+
+class Stepper(NamedTuple):
+    """Compiled functions of one scene: ``advance(ps, pairs, clock, prm, halo, target_step) ->
+    (status, particle_index)`` and ``compute_forces(ps, pairs, clock, prm, v2_max)``."""
+
+    advance: Callable
+    compute_forces: Callable
+
+
+@functools.lru_cache(maxsize=None)
+def make_stepper(opts: StepOptions) -> Stepper:
+    """Compile (or load from numba's cache) the step loop for one set of effects."""
+    if opts.contact.eta and not opts.contact.friction:
+        raise ValueError("StepOptions: eta is tracked only with tangential friction")
+    o = opts.contact
+
+    @nb.njit(**JIT)
+    def advance(ps, pairs, clock, prm, halo, target):
+        h = 0.5 * prm.dt
+        n_move = clock.n_move[0]
+        n_all = clock.n_local[0] + clock.n_ghost[0]
+        scratch = np.empty((2, n_move))
+        work = np.zeros(work_size(o))
+        while clock.step[0] < target or clock.phase[0] == 1:
+            if clock.phase[0] == 0:
+                kick(ps, n_move, h, prm, opts, False)
+                bad, disp, v2 = drift(ps, clock, prm, opts, scratch)
+                # ghosts to t + dt; every rank learns the global maxima (one rank: no-op)
+                err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0], bad >= 0,
+                                                        disp, v2, clock.step[0])
+                if err != 0:
+                    return MPI_FAILED, -1
+                if bad_any:
+                    return BAD_PARTICLE, bad
+                clock.reach[0] = math.sqrt(v2) * prm.dt  # 2 max|v| dt/2
+                # the list must hold every pair within reach of touching:
+                # 2 max_disp + reach <= skin
+                if disp + 0.5 * clock.reach[0] > 0.5 * prm.skin:
+                    clock.disp[0] = disp
+                    return NEED_REBUILD, -1
+            contact_forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], o,
+                           opts.rotation, opts.walls, work)
+            kick(ps, n_move, h, prm, opts, True)
+            clock.phase[0] = 0
+        return OK, -1
+
+    @nb.njit(**JIT)
+    def compute_forces(ps, pairs, clock, prm, v2):
+        """Forces of the current state with synchronous velocities (start of a run); v2 is the
+        largest squared speed over all ranks (m^2/s^2). Ghost velocities must be current."""
+        n = clock.n_local[0] + clock.n_ghost[0]
+        ps.v_pred[:n] = ps.v[:n]
+        ps.w_pred[:n] = ps.omega[:n]
+        clock.reach[0] = math.sqrt(v2) * prm.dt
+        contact_forces(ps, pairs, n, prm, clock.step[0] * prm.dt, clock.reach[0], o,
+                       opts.rotation, opts.walls, np.zeros(work_size(o)))
+
+    return Stepper(advance=advance, compute_forces=compute_forces)

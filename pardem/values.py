@@ -1,0 +1,73 @@
+"""Type and rule checks of single scene values, shared by the scene tables (``schema.py``) and
+the free-particle input (``particles_input.py``): one message per problem, naming the key, the
+value, what is allowed and the unit.
+"""
+
+from __future__ import annotations
+
+import math
+import numbers
+from typing import Any
+
+import numpy as np
+
+from .scene import SceneError
+
+REQ = object()  # marks a required key
+FLOAT, INT, BOOL, STR, AUTO, INT_AUTO = "float", "int", "bool", "str", "auto", "int-auto"
+
+
+def show(v: Any) -> str:
+    """A value as the message shows it (TOML spelling for booleans)."""
+    if isinstance(v, (bool, np.bool_)):
+        return "true" if v else "false"
+    if isinstance(v, numbers.Integral):
+        return str(int(v))
+    if isinstance(v, numbers.Real):
+        return repr(float(v))
+    return repr(v)
+
+
+def is_num(v: Any) -> bool:
+    return isinstance(v, numbers.Real) and not isinstance(v, (bool, np.bool_))
+
+
+def value(label: str, key: str, v: Any, kind: str, unit: str) -> Any:
+    """Type-check one value; ints become floats where floats are expected, "auto" -> None."""
+    u = f" ({unit})" if unit else ""
+    head = f"{label} {key} = {show(v)}:"
+    if kind == BOOL:
+        if isinstance(v, (bool, np.bool_)):
+            return bool(v)
+        raise SceneError(f"{head} expected a boolean (true or false)")
+    if kind == STR:
+        if isinstance(v, str):
+            return v
+        raise SceneError(f"{head} expected a string")
+    if kind == INT:
+        if isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)):
+            return int(v)
+        raise SceneError(f"{head} expected an integer{u}")
+    if kind in (AUTO, INT_AUTO) and isinstance(v, str) and v == "auto":
+        return None
+    if kind == INT_AUTO:
+        if isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)):
+            return int(v)
+        raise SceneError(f'{head} expected an integer or "auto"{u}')
+    if not is_num(v):
+        raise SceneError(f"{head} expected a number{u}" + (' or "auto"' if kind == AUTO else ""))
+    if not math.isfinite(float(v)):
+        raise SceneError(f"{head} must be finite{u}")
+    return float(v)
+
+
+def rule_ok(v: Any, rule: str) -> tuple[bool, str]:
+    if "|" in rule:
+        opts = rule.split("|")
+        return v in opts, "must be one of " + ", ".join(repr(o) for o in opts)
+    op, bound = (">=", rule[2:]) if rule.startswith(">=") else (">", rule[1:])
+    return (v >= float(bound) if op == ">=" else v > float(bound)), f"must be {op} {bound}"
+
+
+def fail(label: str, key: str, v: Any, why: str, unit: str = "") -> SceneError:
+    return SceneError(f"{label} {key} = {show(v)}: {why}" + (f" ({unit})" if unit else ""))
