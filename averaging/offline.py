@@ -18,33 +18,8 @@ from pardem.scene import SceneError, load_scene
 from pardem.output.writers import sample_steps
 from pardem.timestep import resolve_dt
 
-from .boundary import inner_ring_torque
-from .collect import Sample, from_contacts, oriented_rows
-from .rings import RingAverager
-
-
-def snapshot_sample(snap: dict, displacement: str = "eta") -> Sample:
-    """The free particles of a snapshot (rows sorted by id, so a free particle's row is its id)
-    and their contacts, oriented towards each free partner; ``displacement``: "eta" or "spring"
-    for the tangential part of Delta (collect.oriented_rows)."""
-    if "contacts" not in snap:
-        raise SceneError(f"snapshot at t = {snap['time']} s has no contacts: offline averaging "
-                         "needs [output] contacts = true")
-    free = snap["kind"] == 0
-    n = int(free.sum())
-    c = snap["contacts"]
-    lo, hi = c["ids"][:, 0], c["ids"][:, 1]
-    ring = snap.get("ring_contacts")
-    # lo is always free; free ids are 0..n-1, wall disks come after
-    try:
-        owner, normal, overlap, force, tangential = oriented_rows(
-            lo, hi, np.ones(lo.size, bool), hi < n, c, None if ring is None else ring["id"],
-            ring, displacement)
-    except ValueError as e:
-        raise SceneError(f"snapshot at t = {snap['time']} s: {e}") from None
-    return from_contacts(snap["position"][:n], snap["velocity"][:n], snap["omega"][:n],
-                         snap["radius"][:n], snap["mass"][:n], owner, normal, overlap, force,
-                         tangential, inner_ring_torque(snap, c, ring))
+from .sample import snapshot_sample
+from .timeavg import RingAverager
 
 
 def average_run(run_dir: str | Path, start: float | None = None, end: float | None = None,

@@ -37,7 +37,8 @@ import numpy as np
 from pardem.scene import load_scene
 from pardem.walls import wall_layout
 
-from .rings import ERROR_BLOCKS, block_error, read_rings
+from .io import read_rings
+from .timeavg import ERROR_BLOCKS, block_error
 
 PAPER = {"A": {"v0": 0.670, "s": 1.662, "nu_bar": 0.8084},
          "B": {"v0": 0.756, "s": 1.584, "nu_bar": 0.8149},

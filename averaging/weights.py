@@ -29,12 +29,14 @@ import math
 import numba as nb
 import numpy as np
 
+from pardem.jit import JIT
+
 SLICE, EXACT, CENTRE, GAUSSIAN = 0, 1, 2, 3
 WEIGHTINGS = {"slice": SLICE, "exact": EXACT, "centre": CENTRE, "gaussian": GAUSSIAN}
 GAUSS_CUT = 4.0  # kernel cut-off in units of sigma = a/2
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def extent(a, kind):
     """How far (m) from its centre a disk of radius a reaches with this weighting."""
     if kind == CENTRE:
@@ -44,7 +46,7 @@ def extent(a, kind):
     return a
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def inside_share(radius_r, rho, a, kind):
     """W(R): the share (0..1) of the disk counted inside radius R."""
     if kind == CENTRE:
@@ -59,7 +61,7 @@ def inside_share(radius_r, rho, a, kind):
     return inside_area(radius_r, rho, a, kind == EXACT) / (math.pi * a * a)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def inside_area(radius_r, rho, a, exact):
     """Area (m^2) of the disk (centre at distance rho, radius a) inside radius R."""
     if exact:
@@ -85,7 +87,7 @@ def inside_area(radius_r, rho, a, exact):
     return a * a * math.acos(-s / a) + s * math.sqrt(a * a - s * s)
 
 
-@nb.njit(cache=True, error_model="numpy")
+@nb.njit(**JIT)
 def ring_weights(rho, a, r0, dr, n_rings, kind, rings, weights):
     """Fill rings[:m], weights[:m] with the rings the disk reaches and its weights; return m.
     ``rings``/``weights`` must hold at least 2 extent(a, kind) / dr + 2 entries."""

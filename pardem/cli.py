@@ -49,13 +49,13 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "plot":
         return _plot(args)
     t_start = time.perf_counter()
-    from mpi4py import MPI
-
+    from .parallel import abort, world
     from .scene import SceneError, load_scene
     from .simulation import Simulation, SimulationError
 
-    comm = MPI.COMM_WORLD
-    root = comm.Get_rank() == 0
+    comm = world()  # None on one process: MPI is not loaded
+    rank = comm.Get_rank() if comm is not None else 0
+    root = rank == 0
     try:
         scene = load_scene(args.scene)
         out = Path(args.out) if args.out else Path("runs") / scene.info.name
@@ -76,12 +76,12 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr.write(f"pardem: run stopped: {e}\n")
         return 3
     except BaseException:
-        if comm.Get_size() > 1:
+        if comm is not None:
             import traceback
 
-            sys.stderr.write(f"pardem: rank {comm.Get_rank()} failed:\n{traceback.format_exc()}")
+            sys.stderr.write(f"pardem: rank {rank} failed:\n{traceback.format_exc()}")
             sys.stderr.flush()
-            comm.Abort(1)
+            abort(comm)
         raise
     return 0
 
@@ -128,7 +128,11 @@ def _plot(args) -> int:
 
 
 def _collective(comm, fn, *args) -> None:
-    """Run fn on rank 0; if it raises, raise the same error on every rank."""
+    """Run fn on rank 0; if it raises, raise the same error on every rank (comm None: one
+    process)."""
+    if comm is None:
+        fn(*args)
+        return
     error = None
     if comm.Get_rank() == 0:
         try:

@@ -1,4 +1,5 @@
-"""Numba compilation options shared by every kernel (one decision, one place).
+"""Numba compilation options shared by every kernel (one decision, one place), and where the
+compiled code is cached.
 
 - ``cache=True``: compiled code is stored on disk and served to later processes (warm start).
 - ``error_model="numpy"``: float division by zero gives inf/nan instead of a Python exception,
@@ -11,7 +12,54 @@
 - ``INLINE`` kernels are inlined into the step loop at numba IR level. A caller must not reuse a
   variable name of an inlined callee: that was seen to change results by 1 ulp
   (tests/test_contact_law.py compares the compiled loop with standalone kernel calls).
+
+The cache: numba keys a cached function by its own source file only, so a step loop that
+inlines a kernel from another file would keep serving stale code after that file changed.
+Unless NUMBA_CACHE_DIR is set, the cache therefore lives in a folder named after a hash of every
+source file of pardem and averaging that uses numba (~/.cache/pardem/numba/<hash>; folders
+unused for a day are removed, the newest few kept): any edit of compiled code starts a fresh
+cache.
 """
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import time
+from pathlib import Path
 
 JIT = dict(cache=True, error_model="numpy")
 INLINE = dict(JIT, inline="always")
+KEEP_CACHES = 8
+
+
+def _source_keyed_cache() -> None:
+    if os.environ.get("NUMBA_CACHE_DIR"):
+        return
+    root = Path(__file__).resolve().parent.parent
+    digest = hashlib.sha1()
+    for package in ("pardem", "averaging"):
+        for path in sorted((root / package).rglob("*.py")):
+            text = path.read_bytes()
+            if b"numba" in text:
+                digest.update(path.relative_to(root).as_posix().encode())
+                digest.update(text)
+    base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pardem" / "numba"
+    folder = base / digest.hexdigest()[:16]
+    try:
+        folder.mkdir(parents=True, exist_ok=True)
+        os.utime(folder)
+        old = sorted(base.iterdir(), key=lambda p: p.stat().st_mtime)[:-KEEP_CACHES]
+        for path in old:
+            if time.time() - path.stat().st_mtime > 86400:
+                shutil.rmtree(path, ignore_errors=True)
+    except OSError:  # no writable home: numba's default (__pycache__ beside the sources)
+        return
+    os.environ["NUMBA_CACHE_DIR"] = str(folder)
+    import numba
+
+    numba.core.config.reload_config()
+
+
+_source_keyed_cache()

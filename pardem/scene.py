@@ -28,14 +28,22 @@ class SceneError(ValueError):
     """An invalid scene; the message names the table and key at fault."""
 
 
+def key(default: Any = MISSING, unit: str = "", rule: str = ""):
+    """A scene key: its default (none: required), unit and allowed values (">0", ">=5",
+    "a|b"); its kind comes from the annotation ("float | None" accepts "auto"). The checks
+    (schema.py) read these, so a key is declared once, here."""
+    meta = {"unit": unit, "rule": rule}
+    return field(metadata=meta) if default is MISSING else field(default=default, metadata=meta)
+
+
 @dataclass(frozen=True)
 class SceneInfo:
-    """``[scene]``: name (default: file stem, else "scene"), kind ("couette" | "free"),
+    """``[scene]``: kind ("couette" | "free"), name (default: file stem, else "scene"),
     seed (int >= 0, default 1; placement randomness is a function of seed and particle id)."""
 
-    name: str
-    kind: str
-    seed: int = 1
+    kind: str = key(rule="couette|free")
+    name: str = key(None)
+    seed: int = key(1, rule=">=0")
 
 
 @dataclass(frozen=True)
@@ -53,19 +61,19 @@ class Geometry:
     below their diameter). The outer ring's disks sit on its final radius's spacing and move
     radially with it during the compression."""
 
-    inner_radius: float = 0.1035
-    outer_radius: float = 0.2525
-    outer_start_radius: float = 0.33
-    compression_time: float = 2.0
-    omega_inner: float = 0.1
-    wall_particle_diameter: float = 2.5e-3
-    wall_particle_spacing: float = 7.0e-3
-    inner_wall_count: int | None = None
-    outer_wall_count: int | None = None
-    inner_wall_diameter: float | None = None
-    outer_wall_diameter: float | None = None
-    inner_flat_surface: bool = True
-    outer_flat_surface: bool = True
+    inner_radius: float = key(0.1035, "m", ">0")
+    outer_radius: float = key(0.2525, "m")
+    outer_start_radius: float = key(0.33, "m")
+    compression_time: float = key(2.0, "s", ">=0")
+    omega_inner: float = key(0.1, "rad/s")
+    wall_particle_diameter: float = key(2.5e-3, "m", ">0")
+    wall_particle_spacing: float = key(7.0e-3, "m", ">0")
+    inner_wall_count: int | None = key(None, rule=">=0")
+    outer_wall_count: int | None = key(None, rule=">=0")
+    inner_wall_diameter: float | None = key(None, "m", ">0")
+    outer_wall_diameter: float | None = key(None, "m", ">0")
+    inner_flat_surface: bool = key(True)
+    outer_flat_surface: bool = key(True)
 
 
 @dataclass(frozen=True)
@@ -73,10 +81,10 @@ class Species:
     """``[[species]]`` (couette only): name (unique), diameter (m), mass (kg), count (>= 0);
     all required."""
 
-    name: str
-    diameter: float
-    mass: float
-    count: int
+    name: str = key()
+    diameter: float = key(unit="m", rule=">0")
+    mass: float = key(unit="kg", rule=">0")
+    count: int = key(rule=">=0")
 
 
 _PCOLS = ("x", "y", "vx", "vy", "omega", "diameter", "mass")
@@ -124,16 +132,16 @@ class Contact:
     k_r (N/m, rolling spring, 0), mu_r (rolling resistance's Coulomb-type coefficient, 0),
     each allowed only with its [effects] switch."""
 
-    k_n: float = 352.1
-    gamma_n: float = 0.19
-    k_t: float = 267.1
-    mu: float = 0.44
-    mu_bottom: float = 2e-5
-    gravity: float = 9.81
-    height: float = 6e-3
-    gamma_t: float = 0.0
-    k_r: float = 0.0
-    mu_r: float = 0.0
+    k_n: float = key(352.1, "N/m", ">0")
+    gamma_n: float = key(0.19, "kg/s", ">=0")
+    k_t: float = key(267.1, "N/m", ">=0")
+    mu: float = key(0.44, "", ">=0")
+    mu_bottom: float = key(2e-5, "", ">=0")
+    gravity: float = key(9.81, "m/s^2", ">0")
+    height: float = key(6e-3, "m", ">0")
+    gamma_t: float = key(0.0, "kg/s", ">=0")
+    k_r: float = key(0.0, "N/m", ">=0")
+    mu_r: float = key(0.0, "", ">=0")
 
 
 @dataclass(frozen=True)
@@ -145,13 +153,13 @@ class Effects:
     its limit mu_r |f_n|, with [contact] k_r and mu_r). An effect that is off is compiled out
     of the step loop (contact.model)."""
 
-    normal_damping: bool = True
-    tangential_friction: bool = True
-    rotation: bool = True
-    bottom_friction: bool = True
-    clip_attractive_normal: bool = False
-    tangential_damping: bool = False
-    rolling_resistance: bool = False
+    normal_damping: bool = key(True)
+    tangential_friction: bool = key(True)
+    rotation: bool = key(True)
+    bottom_friction: bool = key(True)
+    clip_attractive_normal: bool = key(False)
+    tangential_damping: bool = key(False)
+    rolling_resistance: bool = key(False)
 
 
 @dataclass(frozen=True)
@@ -163,10 +171,10 @@ class TimeCfg:
     fraction (default); "verlet-halfstep": plain velocity Verlet with the half-step velocity
     in those forces and no weighting, as in LAMMPS GRANULAR; docs/accuracy.md compares them)."""
 
-    dt: float | None = None
-    dt_per_contact: float = 50.0
-    end: float = 239.0
-    integrator: str = "verlet"
+    dt: float | None = key(None, "s", ">0")
+    dt_per_contact: float = key(50.0, "", ">=5")
+    end: float = key(239.0, "s", ">0")
+    integrator: str = key("verlet", rule="verlet|verlet-halfstep")
 
 
 @dataclass(frozen=True)
@@ -174,7 +182,7 @@ class Neighbors:
     """``[neighbors]`` (optional): skin (m, Verlet-list skin; "auto" = None, meaning 0.1 x the
     smallest free-particle diameter; default auto)."""
 
-    skin: float | None = None
+    skin: float | None = key(None, "m", ">0")
 
 
 @dataclass(frozen=True)
@@ -182,9 +190,9 @@ class OutputCfg:
     """``[output]``: snapshot_interval (s, 1.0), checkpoint_interval (s, 10.0), contacts (write
     force-chain contacts with snapshots, true)."""
 
-    snapshot_interval: float = 1.0
-    checkpoint_interval: float = 10.0
-    contacts: bool = True
+    snapshot_interval: float = key(1.0, "s", ">0")
+    checkpoint_interval: float = key(10.0, "s", ">0")
+    contacts: bool = key(True)
 
 
 @dataclass(frozen=True)
@@ -200,13 +208,13 @@ class AveragingCfg:
     at the Coulomb limit, with which M = (k_t/pi h) kappa . F holds identically and mu_c only
     restates the fabric)."""
 
-    start: float = 180.0
-    end: float = 239.0
-    sample_interval: float = 0.1
-    ring_width: float = 0.9275e-3
-    weighting: str = "slice"
-    reference_diameter: float | None = None
-    displacement: str = "eta"
+    start: float = key(180.0, "s", ">=0")
+    end: float = key(239.0, "s")
+    sample_interval: float = key(0.1, "s", ">0")
+    ring_width: float = key(0.9275e-3, "m", ">0")
+    weighting: str = key("slice", rule="slice|exact|centre|gaussian")
+    reference_diameter: float | None = key(None, "m", ">0")
+    displacement: str = key("eta", rule="eta|spring")
 
 
 @dataclass(frozen=True)

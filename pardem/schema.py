@@ -16,53 +16,27 @@ from typing import Any
 
 import numpy as np
 
+from .contact.model import check_slots
 from .particles_input import check_particles, particles_from_file, particles_from_tables
 from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
                     SceneError, SceneInfo, Species, TimeCfg)
 from .values import AUTO, BOOL, FLOAT, INT, INT_AUTO, REQ, STR, fail, rule_ok, show, value
 
 
-def _schema(cls: type, spec: dict[str, tuple[str, str, str]],
-            defaults: dict[str, Any] | None = None) -> dict[str, tuple[str, Any, str, str]]:
-    """key -> (kind, default, unit, rule); defaults come from the dataclass (single source)."""
-    dflt = {f.name: REQ if f.default is MISSING else f.default for f in dataclasses.fields(cls)}
-    dflt.update(defaults or {})
-    return {k: (kind, dflt[k], unit, rule) for k, (kind, unit, rule) in spec.items()}
+KINDS = {"float": FLOAT, "int": INT, "bool": BOOL, "str": STR, "float | None": AUTO,
+         "int | None": INT_AUTO}
 
 
-_TABLES: dict[str, dict[str, tuple[str, Any, str, str]]] = {
-    "scene": _schema(SceneInfo, {"name": (STR, "", ""), "kind": (STR, "", "couette|free"),
-                                 "seed": (INT, "", ">=0")}, {"name": None}),
-    "geometry": _schema(Geometry, {
-        "inner_radius": (FLOAT, "m", ">0"), "outer_radius": (FLOAT, "m", ""),
-        "outer_start_radius": (FLOAT, "m", ""), "compression_time": (FLOAT, "s", ">=0"),
-        "omega_inner": (FLOAT, "rad/s", ""), "wall_particle_diameter": (FLOAT, "m", ">0"),
-        "wall_particle_spacing": (FLOAT, "m", ">0"),
-        **{f"{ring}_{key}": spec for ring in ("inner", "outer") for key, spec in (
-            ("wall_count", (INT_AUTO, "", ">=0")), ("wall_diameter", (AUTO, "m", ">0")),
-            ("flat_surface", (BOOL, "", "")))}}),
-    "species": _schema(Species, {"name": (STR, "", ""), "diameter": (FLOAT, "m", ">0"),
-                                 "mass": (FLOAT, "kg", ">0"), "count": (INT, "", ">=0")}),
-    "contact": _schema(Contact, {
-        "k_n": (FLOAT, "N/m", ">0"), "gamma_n": (FLOAT, "kg/s", ">=0"),
-        "k_t": (FLOAT, "N/m", ">=0"), "mu": (FLOAT, "", ">=0"), "mu_bottom": (FLOAT, "", ">=0"),
-        "gravity": (FLOAT, "m/s^2", ">0"), "height": (FLOAT, "m", ">0"),
-        "gamma_t": (FLOAT, "kg/s", ">=0"), "k_r": (FLOAT, "N/m", ">=0"),
-        "mu_r": (FLOAT, "", ">=0")}),
-    "effects": _schema(Effects, {f.name: (BOOL, "", "") for f in dataclasses.fields(Effects)}),
-    "time": _schema(TimeCfg, {"dt": (AUTO, "s", ">0"), "dt_per_contact": (FLOAT, "", ">=5"),
-                              "end": (FLOAT, "s", ">0"),
-                              "integrator": (STR, "", "verlet|verlet-halfstep")}),
-    "neighbors": _schema(Neighbors, {"skin": (AUTO, "m", ">0")}),
-    "output": _schema(OutputCfg, {"snapshot_interval": (FLOAT, "s", ">0"),
-                                  "checkpoint_interval": (FLOAT, "s", ">0"),
-                                  "contacts": (BOOL, "", "")}),
-    "averaging": _schema(AveragingCfg, {
-        "start": (FLOAT, "s", ">=0"), "end": (FLOAT, "s", ""),
-        "sample_interval": (FLOAT, "s", ">0"),
-        "ring_width": (FLOAT, "m", ">0"), "weighting": (STR, "", "slice|exact|centre|gaussian"),
-        "reference_diameter": (AUTO, "m", ">0"), "displacement": (STR, "", "eta|spring")}),
-}
+def _schema(cls: type) -> dict[str, tuple[str, Any, str, str]]:
+    """key -> (kind, default, unit, rule) of a table's dataclass (scene.key declares them)."""
+    return {f.name: (KINDS[f.type], REQ if f.default is MISSING else f.default,
+                     f.metadata["unit"], f.metadata["rule"]) for f in dataclasses.fields(cls)}
+
+
+_TABLES = {name: _schema(cls) for name, cls in (
+    ("scene", SceneInfo), ("geometry", Geometry), ("species", Species), ("contact", Contact),
+    ("effects", Effects), ("time", TimeCfg), ("neighbors", Neighbors), ("output", OutputCfg),
+    ("averaging", AveragingCfg))}
 _TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "contact", "effects",
              "time", "neighbors", "output", "averaging")
 
@@ -90,34 +64,6 @@ def _parse(raw: Any, table: str, label: str) -> dict[str, Any]:
     return out
 
 
-def _check_slots(c: dict[str, Any], e: dict[str, Any]) -> None:
-    """The parameters each switched-on contact slot needs (contact.model)."""
-    if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
-        raise fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
-                   "tangential_friction is on and mu > 0", "N/m")
-    if e["tangential_damping"]:
-        if not e["tangential_friction"]:
-            raise fail("[effects]", "tangential_damping", True, "needs [effects] "
-                       "tangential_friction = true (it damps the tangential spring)")
-        if not c["gamma_t"] > 0:
-            raise fail("[contact]", "gamma_t", c["gamma_t"], "must be > 0 when [effects] "
-                       "tangential_damping is on", "kg/s")
-    elif c["gamma_t"] != 0:
-        raise fail("[contact]", "gamma_t", c["gamma_t"], "is set but [effects] "
-                   "tangential_damping is off; switch it on or remove gamma_t", "kg/s")
-    if e["rolling_resistance"]:
-        if not e["rotation"]:
-            raise fail("[effects]", "rolling_resistance", True, "needs [effects] rotation = "
-                       "true (it resists the disks' relative rotation)")
-        if not c["k_r"] > 0:
-            raise fail("[contact]", "k_r", c["k_r"], "must be > 0 when [effects] "
-                       "rolling_resistance is on", "N/m")
-    elif c["k_r"] != 0 or c["mu_r"] != 0:
-        key = "k_r" if c["k_r"] != 0 else "mu_r"
-        raise fail("[contact]", key, c[key], "is set but [effects] rolling_resistance is off; "
-                   f"switch it on or remove {key}", "N/m" if key == "k_r" else "")
-
-
 def _table_list(raw: Any, name: str) -> list[Any]:
     if not isinstance(raw, list) or not raw:
         raise SceneError(f"[[{name}]]: expected a non-empty array of tables")
@@ -143,7 +89,7 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
     opt = {t: _parse(d.get(t, {}), t, f"[{t}]")
            for t in ("contact", "effects", "time", "neighbors", "output")}
     c, e = opt["contact"], opt["effects"]
-    _check_slots(c, e)
+    check_slots(c, e)
     averaging = None
     if "averaging" in d:
         a = _parse(d["averaging"], "averaging", "[averaging]")

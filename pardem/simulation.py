@@ -21,14 +21,10 @@ import math
 import sys
 import time
 from pathlib import Path
-from typing import NamedTuple
-
 import numpy as np
 
-from . import diagnostics as diag
 from .contact.history import carry_history, live_history
 from .contact.model import history_columns, law_params, options_for
-from .neighbors import build_lists
 from .output.progress import breakdown, log_line, progress_line, show_progress
 from .output.restart import gather_state, restore
 from .output.snapshots import write_snapshot
@@ -36,23 +32,17 @@ from .output.checkpoint import save_checkpoint
 from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots, sample_steps
 from .parallel import GHOST_MARGIN_SKINS, decomposition
 from .placement import initial_configuration, whole_cell
+from .rebuild import place_idle_walls, rebuild
 from .scene import Scene, write_scene
-from .state import Params, new_clock, new_pairs, new_particles, packed, row_width, unpack_particles
+from .state import Params, new_clock, new_pairs, new_particles, packed, unpack_particles
 from .step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
-from .walls import outer_radius, place_wall_disks, rings_of
+from .views import StateViews
+from .walls import rings_of
 
 
 class SimulationError(RuntimeError):
     """The run became invalid (non-finite value, particle left the cell)."""
-
-
-class LocalTables(NamedTuple):
-    """This rank's contacts: ``pairs`` (diagnostics.contact_table) and ``rings``
-    (diagnostics.ring_contact_table, None without rings)."""
-
-    pairs: dict
-    rings: dict | None
 
 
 def tracks_eta(scene: Scene, writes_output: bool) -> bool:
@@ -67,7 +57,7 @@ def tracks_eta(scene: Scene, writes_output: bool) -> bool:
             or (avg is not None and scene.geometry is not None and avg.displacement == "eta"))
 
 
-class Simulation:
+class Simulation(StateViews):
     """One scene's state and run loop: ``Simulation(scene, out_dir=None, restart=None,
     comm=None)``, ``run(end=None, progress=True)``, ``advance_steps(n)``.
 
@@ -123,8 +113,9 @@ class Simulation:
         self.clock.n_move[0] = mine.size
         self.clock.n_local[0] = rows.shape[0]
         self.clock.n_moved[0] = rows.shape[0]  # every wall disk is at time t: none idle yet
-        # _order_walls: no owned particle gets this close to an idle wall disk between exchanges
-        self._wall_margin = self.decomp.ghost_width + 2.0 * float(
+        # rebuild.order_walls: no owned particle gets this close to an idle wall disk between
+        # exchanges
+        self.wall_margin = self.decomp.ghost_width + 2.0 * float(
             init.radius[init.n_free:].max(initial=0.0))
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.hist)
         self._rebuild(history=history, rebalance=False)
@@ -149,6 +140,23 @@ class Simulation:
 
     def breakdown(self) -> str:
         return breakdown(self)
+
+    def reset_timers(self) -> None:
+        """Zero the stage timers, the waiting time and the build count (benchmarks)."""
+        for key in self.timers:
+            self.timers[key] = 0.0
+        self.decomp.wait[0] = 0.0
+        self.n_rebuilds = 0
+
+    def stats(self) -> dict:
+        """This rank's counts: owned particles, ghosts, listed pairs, neighbour ranks, ghosts
+        sent per step, whether the refresh needs an Allreduce, seconds spent waiting."""
+        h = self.decomp.halo
+        return {"owned": int(self.clock.n_move[0]), "ghosts": int(self.clock.n_ghost[0]),
+                "pairs": int(self.pairs.count[0]), "neighbours": 0 if h is None else
+                int(h.nbr.size), "sent": 0 if h is None else int(h.send_idx.size),
+                "allreduce": bool(h is not None and h.cfg.allreduce),
+                "wait": float(self.decomp.wait[0])}
 
     # -- setting up -------------------------------------------------------------------------
     def set_particles(self, ids, position=None, velocity=None, omega=None) -> None:
@@ -190,69 +198,7 @@ class Simulation:
 
     # -- neighbour lists ----------------------------------------------------------------------
     def _rebuild(self, history=None, rebalance: bool = True, exchange: bool = True) -> None:
-        """New neighbour lists; under MPI, if ``exchange``, first migrate particles and
-        exchange ghosts (which usually builds the lists too). The history is carried over by
-        gid keys (from ``history`` if given, else from the current list)."""
-        count, n_wall = -1, -1  # lists not built yet
-        if self.decomp.parallel and exchange:
-            history, (count, n_wall) = self._exchange(history, rebalance)
-        from_list = self.hist > 0 and history is None
-        if history is None:
-            history = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
-        while not (0 <= count <= self.pairs.i.size and 0 <= n_wall <= self.pairs.wall.size):
-            if count >= 0:  # a build overflowed the lists: grow them, keep the history read
-                from_list = False
-                self.pairs = new_pairs(max(count + count // 2, self.pairs.i.size),
-                                       max(n_wall + n_wall // 2, self.pairs.wall.size),
-                                       self.hist)
-            count, n_wall, history = build_lists(self.ps, self.pairs, self.clock, self.prm,
-                                                 self.time, from_list, history,
-                                                 self.options.walls)
-        self.n_rebuilds += 1
-
-    def _exchange(self, history, rebalance: bool):
-        """Under MPI: migrate owned particles that left the sector, exchange ghosts, lay the
-        rows out again as [owned | wall disks | ghosts] and, if they fit, build the lists.
-        Returns the history with the migrants' merged in, and (pair count, ring candidate
-        count) of the lists, or (-1, -1) if they were not built."""
-        clock, ps, hist = self.clock, self.ps, self.hist
-        n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
-        if rebalance:
-            self.decomp.rebalance(ps.x[:n_move])
-        written, moved, own, walls, ghosts, lists, history = self.decomp.distribute(
-            ps, self.pairs, clock, (n_move, n_local, idle), hist, self.options.walls, history,
-            self.time, self.prm, self._wall_margin)
-        if not written:  # ps too small: store the rows in larger arrays
-            rows = np.concatenate([own, walls, ghosts] if moved else
-                                  [packed(ps, np.arange(n_local), hist), ghosts])
-            self.ps = ps = new_particles(int(1.25 * rows.shape[0]), hist)
-            unpack_particles(rows, ps, 0)
-            self._order_walls(idle)  # the wall block keeps its order: the idle ones are last
-        return history, lists
-
-    def _order_walls(self, idle: int) -> None:
-        """Store the wall disks near this rank's sector first and let the step loop move only
-        those (clock.n_moved): within the ghost width plus a wall diameter of the sector, no
-        owned particle can touch another wall disk before the next exchange. ``idle``: how
-        many wall disks, stored last, the step loop did not move (placed here first)."""
-        from .parallel.exchange import ExchangePlan, arrange_walls
-
-        clock = self.clock
-        n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-        plan = ExchangePlan(self.decomp.sectors.edges, self.decomp.rank, 0.0,
-                            self._wall_margin, row_width(self.hist), 0, False, False)
-        n_near = arrange_walls(self.ps, n_move, n_local - idle, n_local, self.time, self.prm,
-                               plan)
-        clock.n_moved[0] = n_move + n_near
-
-    def _place_idle_walls(self) -> None:
-        """Bring the wall disks the step loop does not move (clock.n_moved onwards) to the
-        current time whenever control returns to Python, so that output sees every wall disk
-        where it is."""
-        first, last = int(self.clock.n_moved[0]), int(self.clock.n_local[0])
-        if last > first:
-            place_wall_disks(self.ps, first, last, self.time, self.prm.rings, False)
+        rebuild(self, history, rebalance, exchange)
 
     def history_table(self):
         """This rank's non-zero contact history: (gid_lo, gid_hi, rows), sorted by key."""
@@ -316,7 +262,7 @@ class Simulation:
         steps = sample_steps(cfg.start, cfg.end, cfg.sample_interval, self.dt)
         steps = steps[(steps <= end_step) & (steps > self.step)]
         if self.rings is None:
-            from averaging.rings import RingAverager  # averaging builds on pardem
+            from averaging.timeavg import RingAverager  # averaging builds on pardem
 
             d_ref = cfg.reference_diameter or 2.0 * float(np.mean(self._free_radii))
             self.rings = RingAverager(g.inner_radius, g.outer_radius, cfg.ring_width,
@@ -347,7 +293,7 @@ class Simulation:
                 raise RuntimeError(f"MPI ghost exchange failed on rank {self.decomp.rank} at "
                                    f"step {self.step}")
             else:
-                self._place_idle_walls()
+                place_idle_walls(self)
                 return
 
     def _timed(self, stage: str, fn, *args) -> None:
@@ -372,105 +318,6 @@ class Simulation:
                 f"({ps.v[k, 0]:.6g}, {ps.v[k, 1]:.6g}) m/s (non-finite, or outside the cell; "
                 f"at the last neighbour-list build it was at ({ref[0]:.6g}, {ref[1]:.6g}) m); "
                 "the last checkpoint is kept")
-
-    # -- measurements (collective under MPI: every rank must call them) ----------------------
-    def kinetic_energy(self) -> float:
-        """Translational + rotational kinetic energy (J) of the free particles."""
-        return float(self.decomp.sum(diag.kinetic_energy(self.ps, int(self.clock.n_move[0]))))
-
-    def total_energy(self) -> float:
-        """Kinetic + elastic energy (J): every spring of disk-disk and disk-ring contacts."""
-        n_move = int(self.clock.n_move[0])
-        e = diag.elastic_energy_pairs(self.ps, self.pairs, self.prm, self.contact, n_move)
-        if self.options.walls:
-            e += diag.elastic_energy_rings(self.ps, self.pairs, self.prm, self.contact,
-                                           outer_radius(self.time, self.prm.rings)[0])
-        return self.kinetic_energy() + float(self.decomp.sum(e))
-
-    def max_overlap(self) -> float:
-        """Largest overlap over the diameter of the smaller free particle in the contact."""
-        r_out = outer_radius(self.time, self.prm.rings)[0]
-        return float(self.decomp.max(diag.max_overlap_ratio(self.ps, self.pairs, self.prm,
-                                                            r_out)))
-
-    # -- views of the contacts and particles ----------------------------------------------------
-    def local_tables(self, n_own: int | None = None) -> LocalTables:
-        """This rank's touching pairs whose lower-gid partner is among its first ``n_own`` rows
-        (default: its owned particles, so each pair is reported once over the ranks; all local
-        rows: every pair with an owned partner), with storage indices, and its ring contacts."""
-        n_own = int(self.clock.n_move[0]) if n_own is None else n_own
-        pairs = diag.contact_table(self.ps, self.pairs, self.prm, self.contact, n_own,
-                                   local_index=True)
-        rings = None
-        if self.options.walls:
-            rings = diag.ring_contact_table(self.ps, self.pairs, self.prm, self.contact,
-                                            outer_radius(self.time, self.prm.rings)[0])
-        return LocalTables(pairs, rings)
-
-    def local_view(self):
-        """What in-situ averaging needs of this rank: ``(particles, n_owned, tables)`` with
-        the arrays of every local row (owned particles first: gid, kind, x, v, omega, radius,
-        mass) and every touching pair with an owned partner (``local_tables``)."""
-        ps, n = self.ps, int(self.clock.n_local[0] + self.clock.n_ghost[0])
-        rows = {"gid": ps.gid[:n], "kind": ps.kind[:n], "x": ps.x[:n], "v": ps.v[:n],
-                "omega": ps.omega[:n], "radius": ps.radius[:n], "mass": ps.mass[:n]}
-        return rows, int(self.clock.n_move[0]), self.local_tables(n)
-
-    def contacts(self) -> dict[str, np.ndarray] | None:
-        """Touching pairs of the whole cell sorted by (gid_lo, gid_hi) (diagnostics.contact_table
-        columns); on rank 0 only (None on the others)."""
-        t = self.local_tables().pairs
-        del t["index"]
-        return self.decomp.gather_rows(t, key="ids")
-
-    def ring_contacts(self) -> dict[str, np.ndarray] | None:
-        """Contacts of free particles with the flat ring surfaces, sorted by particle id
-        (diagnostics.ring_contact_table columns without ``index``); rank 0 only."""
-        t = self.local_tables().rings
-        if t is None:
-            return None
-        del t["index"]
-        return self.decomp.gather_rows(t, key="id")
-
-    PARTICLE_ARRAYS = {"id": "gid", "kind": "kind", "position": "x", "velocity": "v",
-                       "omega": "omega", "theta": "theta", "radius": "radius", "mass": "mass",
-                       "force": "f", "torque": "tau"}
-
-    def gathered(self, *keys: str) -> dict[str, np.ndarray] | None:
-        """Per-particle arrays of the whole cell sorted by id (rank 0; None on the others;
-        collective): ``keys`` among PARTICLE_ARRAYS (SI units, as in the snapshots; default
-        all) and ``rank`` (the owning rank, -1 for wall disks). Wall disks report zero force
-        and torque: they are prescribed, and each rank adds only its own particles' contacts
-        to them, so their loads are not a state."""
-        ps, n_move = self.ps, int(self.clock.n_move[0])
-        rows = slice(0, int(self.clock.n_local[0]) if self.decomp.rank == 0 else n_move)
-        keys = keys or (*self.PARTICLE_ARRAYS, "rank")
-        mine = {"id": ps.gid[rows], "kind": ps.kind[rows]}
-        mine.update({k: getattr(ps, self.PARTICLE_ARRAYS[k])[rows] for k in keys if k != "rank"})
-        if "rank" in keys:
-            mine["rank"] = np.full(mine["id"].size, self.decomp.rank, np.int32)
-            mine["rank"][n_move:] = -1
-        out = self.decomp.gather_rows(mine, key="id")
-        if out is not None:
-            walls = out["kind"] != 0
-            for k in ("force", "torque"):
-                if k in out:
-                    out[k][walls] = 0.0
-        return out
-
-    def particle_arrays(self) -> dict[str, np.ndarray] | None:
-        """Particle data of the whole cell sorted by id (the snapshot layout); rank 0 only."""
-        return self._particle_table(self.contacts())
-
-    def _particle_table(self, contacts: dict[str, np.ndarray] | None):
-        """particle_arrays() given this instant's gathered contacts (collective)."""
-        out = self.gathered()
-        if out is None:
-            return None
-        ids = contacts["ids"]
-        out["coordination"] = np.bincount(np.searchsorted(out["id"], ids.ravel()),
-                                          minlength=out["id"].size)
-        return out
 
     # -- output --------------------------------------------------------------------------------
     def write_snapshot(self) -> None:

@@ -15,13 +15,14 @@ from pathlib import Path
 
 import numpy as np
 
-from averaging.offline import snapshot_sample
-from averaging.rings import RingAverager, read_rings
+from averaging.io import read_rings
+from averaging.sample import snapshot_sample
+from averaging.timeavg import RingAverager
+from pardem.contact.model import contact_time, restitution
 from pardem.output.snapshots import read_snapshots
 from pardem.scene import load_scene, scene_from_dict
 from pardem.simulation import Simulation
-from pardem.timestep import contact_time, restitution
-from pardem.verification import D_S, M_S, elastic_gas_energy_error, measure, two_disks
+from pardem.testing import D_S, M_S, elastic_gas_energy_error, measure, two_disks
 
 K_N, GAMMA_N = 352.1, 0.19
 SMALL_CELL = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
@@ -60,7 +61,7 @@ def couette_profiles(n_per_contact: float, integrator: str, end: float) -> dict:
     wall = time.perf_counter() - t0
     f = sim.rings.fields()
     return {"nu": f["nu"], "nu_err": f["nu_err"], "v": f["v_phi_norm"],
-            "v_err": f["v_phi_norm_err"], "wall": wall, "steps": int(sim.clock.step[0])}
+            "v_err": f["v_phi_norm_err"], "wall": wall, "steps": sim.step}
 
 
 def compressed_paper_cell(path: Path) -> Path:
@@ -90,7 +91,7 @@ def step_cost(ckpt: Path, n_per_contact: float | None = None, skin_d: float | No
         sim.advance_steps(steps)
         times.append((time.perf_counter() - t0) / steps)
         rebuilds.append(1000 * (sim.n_rebuilds - b0) / steps)
-        pairs.append(int(sim.pairs.count[0]))
+        pairs.append(sim.stats()["pairs"])
     step = statistics.median(times)
     return {"step_s": step, "dt": sim.dt, "wall_per_sim_s": step / sim.dt,
             "rebuilds_per_1000": statistics.median(rebuilds), "pairs": int(np.median(pairs)),
@@ -98,17 +99,20 @@ def step_cost(ckpt: Path, n_per_contact: float | None = None, skin_d: float | No
 
 
 def _retune(sim, n_per_contact, skin_d, integrator):
-    from pardem.stepper import make_stepper
+    """Change a running simulation's dt, skin or integrator in place (a study's shortcut that
+    keeps the packing; not an interface)."""
+    from pardem.step import make_stepper
 
     if n_per_contact is not None:  # keep the simulated time: time = step * dt
         t = sim.time
         sim.dt = contact_time(K_N, GAMMA_N, M_S / 2) / n_per_contact
-        sim.prm = sim.prm._replace(dt=sim.dt)
+        sim.prm = sim.prm._replace(dt=sim.dt, law=sim.prm.law._replace(dt=sim.dt))
         sim.clock.step[0] = int(round(t / sim.dt))
     if skin_d is not None:
         sim.prm = sim.prm._replace(skin=skin_d * D_S)
     if integrator != "verlet":
-        sim.options = sim.options._replace(predict=False)
+        sim.contact = sim.contact._replace(window=False)
+        sim.options = sim.options._replace(predict=False, contact=sim.contact)
         sim.stepper = make_stepper(sim.options)
     sim.refresh()
 

@@ -1,8 +1,8 @@
 """Benchmark: flow-particle-steps per second on couette_B after compression, on 1 and 2 ranks,
-and start-up cost.
+and start-up cost; optionally against an older commit, side by side.
 
     python run_scripts/bench.py [--steps 20000] [--repeats 5] [--ranks 1 2] [--startup]
-                                [--eta off|on|both]
+                                [--eta off|on|both] [--against REV]
 
 Compresses scene B once (t = 0 .. 2.5 s, not timed) and checkpoints it. Then times
 ``--repeats`` rounds of ``--steps`` shear steps, each round one run per rank count (in turn),
@@ -14,7 +14,10 @@ ratios). ``--startup`` also measures `pardem run` from process start to the firs
 an empty numba cache (cold) and again with the cache filled (warm). ``--eta``: whether the step
 loop also tracks the paper's total tangential displacement eta (what a run that averages with
 it or writes contacts pays); "both" alternates the two within every round and prints the cost
-of eta as the ratio of the medians. Default "off", the dynamics alone.
+of eta as the ratio of the medians. Default "off", the dynamics alone. ``--against REV``: the
+same runs with the code of git revision REV (checked out into a temporary worktree, its own
+bench.py's worker on its own compressed checkpoint) alternating with this code's, round by
+round; prints the ratio of the medians and the per-round ratios.
 """
 
 from __future__ import annotations
@@ -52,7 +55,7 @@ def compress(ckpt: Path) -> None:
     t0 = time.perf_counter()
     sim.run(end=2.5, progress=False)
     print(f"compression to t = 2.5 s: {time.perf_counter() - t0:.1f} s wall, "
-          f"{sim.clock.step[0]} steps, largest overlap {100 * sim.max_overlap():.2f} % d")
+          f"{sim.step} steps, largest overlap {100 * sim.max_overlap():.2f} % d")
     sim.write_checkpoint(ckpt)
 
 
@@ -63,28 +66,22 @@ def worker(ckpt: str, steps: int, eta: bool) -> None:
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD
-    run = Simulation(scene_b(eta), restart=ckpt, comm=comm)
-    assert run.eta == eta
+    run = Simulation(scene_b(eta), restart=ckpt, comm=comm if comm.size > 1 else None)
+    assert run.contact.eta == eta
     # compiled code loaded and caches warm, the builds' code included
     builds = run.n_rebuilds
     while run.n_rebuilds < builds + 2:
         run.advance_steps(50)
-    for key in run.timers:
-        run.timers[key] = 0.0
-    run.decomp.halo.wait[0] = 0.0
-    run.n_rebuilds = 0
+    run.reset_timers()
     comm.Barrier()
     t0 = time.perf_counter()
     run.advance_steps(steps)
     comm.Barrier()
     wall = time.perf_counter() - t0
-    h = run.decomp.halo
-    mine = {"owned": int(run.clock.n_move[0]), "ghosts": int(run.clock.n_ghost[0]),
-            "pairs": int(run.pairs.count[0]), "neighbours": int(h.nbr.size),
-            "sent": int(h.send_idx.size), "allreduce": bool(h.ints[5] and h.ints[0]),
-            "step_us": 1e6 * run.timers["forces+integration"] / steps,
-            "rebuild_us": 1e6 * run.timers["neighbour rebuild"] / steps,
-            "wait_us": 1e6 * float(h.wait[0]) / steps}
+    mine = run.stats()
+    mine.update({"step_us": 1e6 * run.timers["forces+integration"] / steps,
+                 "rebuild_us": 1e6 * run.timers["neighbour rebuild"] / steps,
+                 "wait_us": 1e6 * mine.pop("wait") / steps})
     ranks = comm.gather(mine, root=0)
     if comm.rank == 0:
         print(json.dumps({"wall": wall, "n_free": run.n_free, "rebuilds": run.n_rebuilds,
@@ -92,37 +89,66 @@ def worker(ckpt: str, steps: int, eta: bool) -> None:
                           "breakdown": run.breakdown()}))
 
 
-def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off"
-               ) -> dict[int, float]:
+def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
+               against: str | None = None) -> dict[int, float]:
     """Median flow-particle-steps/s for each rank count (also printed, with every run).
 
     The rank counts take turns (round k runs every count once), so that the machine's slow
     drifts (a shared VM: +-15 % over minutes) hit every count alike; the speed-up is also given
     as the median of the per-round ratios, each from runs a few seconds apart. ``eta`` "both":
-    each rank count runs without and with eta in turn; the cost of eta is printed likewise."""
+    each rank count runs without and with eta in turn; the cost of eta is printed likewise.
+    ``against``: a git revision whose code runs each round too (see the module docstring)."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     mpiexec = Path(sys.executable).parent / "mpiexec"
     variants = {"off": [False], "on": [True], "both": [False, True]}[eta]
-    rates: dict = {(p, e): [] for p in ranks for e in variants}
+    codes = ["new"] + (["old"] if against else [])
+    rates: dict = {(c, p, e): [] for c in codes for p in ranks for e in variants}
     last: dict = {}
     with tempfile.TemporaryDirectory() as tmp:
-        ckpt = Path(tmp) / "compressed.h5"
-        compress(ckpt)
-        for k in range(repeats):
-            for p in ranks:
-                for e in variants:
-                    out = subprocess.run(
-                        [str(mpiexec), "-n", str(p), sys.executable, "-m", "mpi4py", __file__,
-                         "--worker", str(ckpt), "--steps", str(steps), "--eta",
-                         "on" if e else "off"],
-                        check=True, capture_output=True, text=True, env=env, timeout=3600)
-                    res = last[p, e] = json.loads(out.stdout.strip().splitlines()[-1])
-                    rates[p, e].append(res["n_free"] * steps / res["wall"])
-                    print(f"{p} rank(s){', eta' if e else ''}, run {k + 1}: {steps} steps in "
-                          f"{res['wall']:.3f} s -> {rates[p, e][-1] / 1e6:.2f} M "
-                          f"flow-particle-steps/s ({steps / res['wall']:.0f} steps/s, "
-                          f"{res['rebuilds']} neighbour builds, ghosts per rank {res['ghosts']})",
-                          flush=True)
+        trees = {"new": HERE.parent}
+        if against:
+            trees["old"] = Path(tmp) / "old"
+            subprocess.run(["git", "-C", str(HERE.parent), "worktree", "add", "--detach",
+                            str(trees["old"]), against], check=True, capture_output=True)
+        try:
+            ckpts = {}
+            for code, tree in trees.items():
+                ckpts[code] = Path(tmp) / f"compressed-{code}.h5"
+                print(f"{code} code ({tree}):", end=" ", flush=True)
+                subprocess.run([sys.executable, "-c", "import sys; from pathlib import Path; "
+                                f"sys.path[:0] = [{str(tree)!r}, {str(tree / 'run_scripts')!r}]; "
+                                f"import bench; bench.compress(Path({str(ckpts[code])!r}))"],
+                               check=True, env=dict(env, PYTHONPATH=str(tree)))
+            for k in range(repeats):
+                for p in ranks:
+                    for e in variants:
+                        for code in codes:
+                            res = last[code, p, e] = _worker_run(
+                                mpiexec, trees[code], ckpts[code], steps, e, p, env)
+                            rates[code, p, e].append(res["n_free"] * steps / res["wall"])
+                            print(f"{code if against else ''} {p} rank(s){', eta' if e else ''}, "
+                                  f"run {k + 1}: {steps} steps in {res['wall']:.3f} s -> "
+                                  f"{rates[code, p, e][-1] / 1e6:.2f} M flow-particle-steps/s "
+                                  f"({steps / res['wall']:.0f} steps/s, {res['rebuilds']} "
+                                  f"neighbour builds, ghosts per rank {res['ghosts']})",
+                                  flush=True)
+        finally:
+            if against:
+                subprocess.run(["git", "-C", str(HERE.parent), "worktree", "remove", "--force",
+                                str(trees["old"])], capture_output=True)
+    if against:
+        for p in ranks:
+            for e in variants:
+                new, old = rates["new", p, e], rates["old", p, e]
+                per_round = [a / b for a, b in zip(new, old)]
+                print(f"new / old on {p} rank(s){', eta' if e else ''}: "
+                      f"{statistics.median(new) / statistics.median(old):.3f} (ratio of the "
+                      f"medians, {statistics.median(new) / 1e6:.2f} M against "
+                      f"{statistics.median(old) / 1e6:.2f} M); per round "
+                      f"{', '.join(f'{x:.3f}' for x in per_round)}, spread "
+                      f"{min(per_round):.3f}-{max(per_round):.3f}", flush=True)
+    rates = {key[1:]: v for key, v in rates.items() if key[0] == "new"}
+    last = {key[1:]: v for key, v in last.items() if key[0] == "new"}
     if eta == "both":
         for p in ranks:
             off, on = rates[p, False], rates[p, True]
@@ -159,6 +185,18 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off"
     return medians
 
 
+def _worker_run(mpiexec: Path, tree: Path, ckpt: Path, steps: int, eta: bool, ranks: int,
+                env: dict) -> dict:
+    """One timed run of the code in ``tree`` (its own run_scripts/bench.py worker)."""
+    out = subprocess.run(
+        [str(mpiexec), "-n", str(ranks), sys.executable, "-m", "mpi4py",
+         str(tree / "run_scripts" / "bench.py"), "--worker", str(ckpt), "--steps", str(steps),
+         "--eta", "on" if eta else "off"],
+        check=True, capture_output=True, text=True, env=dict(env, PYTHONPATH=str(tree)),
+        timeout=3600)
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
 def startup() -> None:
     exe = Path(sys.executable).parent / "pardem"
     scene = HERE / "couette_quick.toml"
@@ -180,6 +218,8 @@ def main() -> None:
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--startup", action="store_true")
     ap.add_argument("--eta", choices=["off", "on", "both"], default="off")
+    ap.add_argument("--against", metavar="REV", help="also run git revision REV's code, "
+                    "alternating with this one (e.g. a commit before a change)")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
@@ -187,7 +227,7 @@ def main() -> None:
         return
     if args.startup:
         startup()
-    throughput(args.steps, args.repeats, args.ranks, args.eta)
+    throughput(args.steps, args.repeats, args.ranks, args.eta, args.against)
 
 
 if __name__ == "__main__":

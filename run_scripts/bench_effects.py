@@ -1,4 +1,5 @@
-"""Benchmark: what each effect of ``[effects]`` costs per step (a disabled effect costs nothing).
+"""Benchmark: what each effect of ``[effects]`` costs per step (a disabled effect costs nothing),
+and what the optional contact slots (tangential damping, rolling resistance) cost when on.
 
     python run_scripts/bench_effects.py [--steps 4000] [--repeats 5]
 
@@ -32,16 +33,22 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 HERE = Path(__file__).resolve().parent
 
 ALL = ("normal_damping", "tangential_friction", "rotation", "bottom_friction")
-VARIANTS = {"all on": {},
-            **{f"{name} off": {name: False} for name in ALL},
-            "all off": {name: False for name in ALL}}
+# label -> ([effects] changes, [contact] changes); "all on": the paper's effects, the optional
+# slots off
+VARIANTS = {"all on": ({}, {}),
+            **{f"{name} off": ({name: False}, {}) for name in ALL},
+            "all off": ({name: False for name in ALL}, {}),
+            "+ tangential_damping": ({"tangential_damping": True}, {"gamma_t": 0.05}),
+            "+ rolling_resistance": ({"rolling_resistance": True}, {"k_r": 267.1, "mu_r": 0.1})}
 
 
-def scene_dict(effects: dict) -> dict:
+def scene_dict(variant: tuple[dict, dict]) -> dict:
+    effects, contact = variant
     d = tomllib.loads((HERE / "couette_B.toml").read_text(encoding="utf-8"))
     for key in ("output", "averaging"):
         d.pop(key, None)
     d["effects"] = {**d["effects"], **effects}
+    d["contact"] = {**d["contact"], **contact}
     return d
 
 
@@ -51,7 +58,7 @@ def packed_state():
     from pardem.scene import scene_from_dict
     from pardem.simulation import Simulation
 
-    sim = Simulation(scene_from_dict(scene_dict({}), base_dir=HERE))
+    sim = Simulation(scene_from_dict(scene_dict(VARIANTS["all on"]), base_dir=HERE))
     t0 = time.perf_counter()
     sim.run(end=2.5, progress=False)
     print(f"compression to t = 2.5 s: {time.perf_counter() - t0:.1f} s "
@@ -59,14 +66,15 @@ def packed_state():
     return sim.time, sim.particle_arrays()
 
 
-def start(effects: dict, state):
-    """A run of ``effects`` at the packed state's time, every disk (wall disks too) placed as in
-    that state; springs start at zero."""
+def start(variant: tuple[dict, dict], state):
+    """A run of a variant at the packed state's time, every disk (wall disks too) placed as in
+    that state; springs start at zero. (It sets the clock and the arrays directly: a benchmark's
+    shortcut, not an interface.)"""
     from pardem.scene import scene_from_dict
     from pardem.simulation import Simulation
 
     t, arrays = state
-    sim = Simulation(scene_from_dict(scene_dict(effects), base_dir=HERE))
+    sim = Simulation(scene_from_dict(scene_dict(variant), base_dir=HERE))
     ps, n = sim.ps, int(sim.clock.n_local[0])
     sim.clock.step[0] = round(t / sim.dt)  # dt depends on the effects (damping)
     for name, key in (("x", "position"), ("v", "velocity"), ("theta", "theta"),
@@ -85,15 +93,15 @@ def kernel_times(state, calls: int, repeats: int) -> dict[str, dict[str, list[fl
     def per_call(sim, xi0):
         t0 = time.perf_counter()
         for _ in range(calls):
-            sim.pairs.xi[:] = xi0
+            sim.pairs.hist[:] = xi0
             sim.stepper.compute_forces(sim.ps, sim.pairs, sim.clock, sim.prm, 0.01)
         return (time.perf_counter() - t0) / calls
 
-    sims = {label: start(effects, state) for label, effects in VARIANTS.items()}
+    sims = {label: start(variant, state) for label, variant in VARIANTS.items()}
     out = {label: {"call": [], "empty": []} for label in VARIANTS}
     for _ in range(repeats):
         for label, sim in sims.items():
-            pairs, xi0 = sim.pairs, sim.pairs.xi.copy()
+            pairs, xi0 = sim.pairs, sim.pairs.hist.copy()
             out[label]["call"].append(per_call(sim, xi0))
             counts = int(pairs.count[0]), int(pairs.wall_count[0])
             pairs.count[0] = pairs.wall_count[0] = 0
@@ -108,10 +116,9 @@ def run_times(state, steps: int, repeats: int) -> dict[str, dict[str, list[float
     keys = ("step", "loop", "builds", "n_builds", "touching", "listed")
     out = {label: {k: [] for k in keys} for label in VARIANTS}
     for k in range(repeats):
-        for label, effects in VARIANTS.items():
-            sim = start(effects, state)
-            for key in sim.timers:
-                sim.timers[key] = 0.0
+        for label, variant in VARIANTS.items():
+            sim = start(variant, state)
+            sim.reset_timers()
             b0 = sim.n_rebuilds
             n0, m0 = sim.contacts()["ids"].shape[0], int(sim.pairs.count[0])
             t0 = time.perf_counter()

@@ -14,7 +14,7 @@ import numba as nb
 import numpy as np
 from mpi4py import MPI
 
-from pardem.mpi_native import mpi_wtime
+from pardem.parallel.native import mpi_wtime
 
 EDGES_US = (5.0, 20.0, 100.0, 1000.0, 10000.0)
 

@@ -18,10 +18,11 @@ import numpy as np
 from mpi4py import MPI
 from numba.core import types
 
-from pardem.mpi_native import (SEQ, SharedWindow, load_acquire, mpi_allreduce, mpi_irecv,
-                               mpi_isend, mpi_waitall, mpi_wtime, store_release)
+from pardem.parallel.halo import SEQ, SharedWindow
+from pardem.parallel.native import (load_acquire, mpi_allreduce, mpi_irecv, mpi_isend,
+                                    mpi_waitall, mpi_wtime, store_release)
 
-# resolved in the libmpi that pardem.mpi_native loaded
+# resolved in the libmpi that pardem.parallel.native loaded
 mpi_testall = types.ExternalFunction("MPI_Testall", types.int32(types.int32, types.intp,
                                                                  types.intp, types.intp))
 

@@ -6,7 +6,7 @@ import math
 import time
 
 from pardem.scene import scene_from_dict
-from pardem.verification import dense_packing  # noqa: F401 (re-exported for the tests)
+from pardem.testing import dense_packing  # noqa: F401 (re-exported for the tests)
 
 D_SMALL, M_SMALL = 7.42e-3, 0.275e-3
 D_LARGE, M_LARGE = 8.99e-3, 0.490e-3
@@ -48,13 +48,15 @@ def free_scene(particles, effects=None, contact=None, time=None, name="test", ne
 
 
 def couette_scene(counts=(2545, 394), geometry=None, effects=None, time=None, output=None,
-                  name="couette-test", averaging=None, neighbors=None):
+                  name="couette-test", averaging=None, neighbors=None, contact=None):
     d = {"scene": {"name": name, "kind": "couette", "seed": 3},
          "geometry": {**(geometry or {})},
          "species": [{"name": "small", "diameter": D_SMALL, "mass": M_SMALL, "count": counts[0]},
                      {"name": "large", "diameter": D_LARGE, "mass": M_LARGE, "count": counts[1]}],
          "effects": {**(effects or {})},
          "time": {"dt": "auto", "end": 1.0, **(time or {})}}
+    if contact:
+        d["contact"] = contact
     if output:
         d["output"] = output
     if averaging:

@@ -21,7 +21,7 @@ def mpiexec() -> str:
     return str(Path(sys.executable).parent / "mpiexec")
 
 
-def run_mpi(args: list[str], n: int, timeout: float = 120, check: bool = True,
+def run_mpi(args: list[str], n: int, timeout: float = 600, check: bool = True,
             module: bool = True, env: dict | None = None) -> subprocess.CompletedProcess:
     """Run ``python [-m mpi4py] ARGS`` on n ranks (``env``: extra environment variables); fail
     the test on a non-zero exit or timeout."""
@@ -45,7 +45,7 @@ def run_mpi(args: list[str], n: int, timeout: float = 120, check: bool = True,
 
 
 def dump_state(scene: Path, steps: int, out: Path, n: int, *extra: str,
-               env: dict | None = None, timeout: float = 120) -> dict:
+               env: dict | None = None, timeout: float = 600) -> dict:
     """Run tests/mpi/dump_state.py on n ranks; return the saved arrays."""
     run_mpi([str(MPI_DIR / "dump_state.py"), str(scene), str(steps), str(out), *extra], n,
             env=env, timeout=timeout)
@@ -53,8 +53,8 @@ def dump_state(scene: Path, steps: int, out: Path, n: int, *extra: str,
         return {k: f[k] for k in f.files}
 
 
-STATE = ("gid", "x", "v", "theta", "omega", "f", "tau", "xi_wall", "pair_lo", "pair_hi",
-         "pair_xi", "step")
+STATE = ("gid", "x", "v", "theta", "omega", "f", "tau", "hist_wall", "pair_lo", "pair_hi",
+         "pair_hist", "step")
 
 
 def assert_same_state(a: dict, b: dict, label: str) -> None:

@@ -7,9 +7,12 @@ import re
 import sys
 from pathlib import Path
 
+import pytest
+
 ROOT = Path(__file__).parent.parent
 
 
+@pytest.mark.timeout(1800)  # compiles several integrator variants (cold cache: minutes)
 def test_quick_accuracy_study_writes_every_section(tmp_path):
     sys.path.insert(0, str(ROOT / "run_scripts"))
     import accuracy_study

@@ -6,8 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from averaging.collect import from_contacts
-from averaging.sums import COL, N_COLUMNS, accumulate
+from averaging.sample import from_contacts
+from averaging.fields import COL, N_COLUMNS
+from averaging.sums import accumulate
 from averaging.weights import EXACT, SLICE
 from averaging.weights import weights_table
 
@@ -131,7 +132,7 @@ def hex_ring_sums(a, delta, h, k_n, r0, dr, exact):
     smp = from_contacts(x, np.zeros_like(x), np.zeros(cnt), np.full(cnt, a), np.ones(cnt),
                         p, n, np.full(p.size, delta), k_n * delta * n, np.zeros((p.size, 2)), 0.0)
     s = np.zeros((int(0.06 / dr), N_COLUMNS))
-    accumulate(*smp[:-1], h, r0, dr, EXACT if exact else SLICE, s)
+    accumulate(smp.particles, smp.contacts, (h, r0, dr, EXACT if exact else SLICE), s)
     return s
 
 
@@ -190,7 +191,7 @@ def test_two_contact_case_by_hand():
                         np.array([a]), np.array([1.0]), np.array([0, 0]), normal,
                         np.array([d1, d2]), force, spring, 0.0)
     s = np.zeros((1, N_COLUMNS))
-    accumulate(*smp[:-1], h, 0.05, 0.1, EXACT, s)
+    accumulate(smp.particles, smp.contacts, (h, 0.05, 0.1, EXACT), s)
     s = dict(zip(COL, s[0]))
     l1, l2 = a - d1 / 2, a - d2 / 2  # lever lengths; l1 = +l1 e_r, l2 = -l2 e_phi
     ft = -k_t * xi1  # tangential force of contact 1, along e_phi
@@ -218,7 +219,7 @@ def test_two_contact_case_by_hand():
 def test_ring_without_contacts_gives_nan_strain_not_a_crash():
     """A ring whose particles touch nothing has a singular fabric: eps and kappa are NaN there
     (never a crash, never a silent zero); nu and the velocities stay finite."""
-    from averaging.rings import derived
+    from averaging.fields import derived
 
     a, h = A_SMALL, 6e-3
     x = np.array([[0.1, 0.0], [0.0, 0.13]])
@@ -226,7 +227,7 @@ def test_ring_without_contacts_gives_nan_strain_not_a_crash():
                         np.ones(2), np.array([1, 1]), np.array([[0.0, -1.0], [1.0, 0.0]]),
                         np.full(2, 1e-5), np.zeros((2, 2)), np.zeros((2, 2)), 0.0)
     s = np.zeros((12, N_COLUMNS))
-    accumulate(*smp[:-1], h, 0.095, 0.0035, SLICE, s)
+    accumulate(smp.particles, smp.contacts, (h, 0.095, 0.0035, SLICE), s)
     r = 0.095 + (np.arange(12) + 0.5) * 0.0035
     f = derived(s, r, 0.0035, h)
     lonely = s[:, COL["vol"]] > 0
@@ -240,7 +241,7 @@ def test_in_situ_and_offline_averaging_agree(tmp_path):
     """The same run averaged while it runs and afterwards from its snapshots (pardem average)."""
     from helpers import couette_scene
 
-    from averaging.rings import read_rings
+    from averaging.io import read_rings
     from pardem.cli import main
     from pardem.scene import write_scene
 
@@ -266,7 +267,8 @@ def test_in_situ_and_offline_averaging_agree(tmp_path):
 
 
 def test_derived_quantities_on_known_fields():
-    from averaging.rings import derived, eigen, exponential_fit
+    from averaging.derived import eigen, exponential_fit
+    from averaging.fields import derived
 
     c, s_ = math.cos(math.radians(30)), math.sin(math.radians(30))
     rot = np.array([[c, -s_], [s_, c]])
@@ -291,7 +293,7 @@ def test_derived_quantities_on_known_fields():
 
 def test_mean_field_stiffness_equals_trace_of_fabric():
     """Paper eq.: in the mean field 2 pi E / k'_n = tr F (exactly, for equal overlaps)."""
-    from averaging.rings import derived
+    from averaging.fields import derived
 
     a, delta, h, k_n = A_SMALL, 2e-5, 6e-3, 352.1
     r0, dr = 0.1, a / 4

@@ -9,7 +9,7 @@ from helpers import D_LARGE, D_SMALL, GAMMA_N, K_N, M_LARGE, M_SMALL, analytic_c
     couette_scene
 
 from pardem.simulation import Simulation
-from pardem.verification import measure, two_disks
+from pardem.testing import measure, two_disks
 
 
 PHASES = np.arange(8) / 8  # where, between two steps, the contact begins
@@ -82,19 +82,20 @@ def wall_setup(target: str, dt="auto"):
                        time={"dt": dt})
     sim = Simulation(sc)
     a, r_in, aw = D_SMALL / 2, 0.1035, 1.25e-3
-    n_in = int(np.sum(sim.ps.kind == 1))
-    phi = math.pi / n_in if target == "flat" else 0.0
+    kind = sim.gathered("kind")["kind"]
+    phi = math.pi / np.sum(kind == 1) if target == "flat" else 0.0
     r0 = r_in + a + 1e-4 + (aw if target == "disk" else 0.0)
     e_r = np.array([math.cos(phi), math.sin(phi)])
-    sim.ps.x[0] = r0 * e_r
-    sim.ps.v[0] = -0.05 * e_r
-    sim.refresh()
-    wall = np.nonzero(sim.ps.kind == 1)[0][0]
-    if target == "flat":
-        ov = lambda s: a - (np.hypot(*s.ps.x[0]) - r_in)  # noqa: E731
-    else:
-        ov = lambda s: a + aw - np.hypot(*(s.ps.x[0] - s.ps.x[wall]))  # noqa: E731
-    return sim, ov, lambda s: -(s.ps.v[0] @ e_r)
+    sim.set_particles(0, position=r0 * e_r, velocity=-0.05 * e_r)
+    wall = np.nonzero(kind == 1)[0][0]
+
+    def overlap(s):
+        x = s.gathered("position")["position"]
+        if target == "flat":
+            return a - (np.hypot(*x[0]) - r_in)
+        return a + aw - np.hypot(*(x[0] - x[wall]))
+
+    return sim, overlap, lambda s: -(s.gathered("velocity")["velocity"][0] @ e_r)
 
 
 @pytest.mark.parametrize("target", ["flat", "disk"])

@@ -8,16 +8,17 @@ import pytest
 from helpers import D_SMALL, M_SMALL, dense_packing, free_scene
 
 from pardem.simulation import Simulation
-from pardem.verification import elastic_gas_energy_error
+from pardem.testing import elastic_gas_energy_error
 
 
 def momenta(sim):
-    ps, n = sim.ps, sim.n_free
-    m = ps.mass[:n]
-    p = (m[:, None] * ps.v[:n]).sum(axis=0)
-    inertia = m * (2 * ps.radius[:n]) ** 2 / 8
-    lz = (m * (ps.x[:n, 0] * ps.v[:n, 1] - ps.x[:n, 1] * ps.v[:n, 0])).sum()
-    return p, lz + (inertia * ps.omega[:n]).sum()
+    s = sim.gathered("position", "velocity", "omega", "mass", "radius")
+    free = s["kind"] == 0
+    m, x, v = s["mass"][free], s["position"][free], s["velocity"][free]
+    p = (m[:, None] * v).sum(axis=0)
+    inertia = m * (2 * s["radius"][free]) ** 2 / 8
+    lz = (m * (x[:, 0] * v[:, 1] - x[:, 1] * v[:, 0])).sum()
+    return p, lz + (inertia * s["omega"][free]).sum()
 
 
 def test_oblique_frictional_collision_conserves_momenta():
@@ -36,7 +37,7 @@ def test_oblique_frictional_collision_conserves_momenta():
         np.testing.assert_allclose(p, p0, rtol=0, atol=1e-16)  # |p| ~ 1e-5 kg m/s
         assert abs(lz - l0) < 1e-16 + 1e-12 * abs(l0)
     assert touched > 20  # the disks really were in contact for many steps
-    assert abs(sim.ps.omega[0] - 3.0) > 0.1  # and friction changed their spins
+    assert abs(sim.gathered("omega")["omega"][0] - 3.0) > 0.1  # and friction changed spins
 
 
 def test_elastic_dense_scene_conserves_energy_second_order():
@@ -74,11 +75,12 @@ def test_bottom_friction_decelerates_at_mu_b_g_then_rests_exactly():
     speed0 = math.hypot(v0, v0 / 2)
     n_stop = speed0 / decel / sim.dt
     sim.advance_steps(int(n_stop * 0.5))
-    speed = math.hypot(*sim.ps.v[0])
+    speed = math.hypot(*sim.gathered("velocity")["velocity"][0])
     assert speed == pytest.approx(speed0 - decel * int(n_stop * 0.5) * sim.dt, rel=1e-9)
     sim.advance_steps(int(n_stop * 0.5) + 10)
-    x_rest = sim.ps.x[0].copy()
-    assert np.all(sim.ps.v[0] == 0.0)
+    rest = sim.gathered("position", "velocity")
+    assert np.all(rest["velocity"][0] == 0.0)
     sim.advance_steps(1000)
-    assert np.all(sim.ps.v[0] == 0.0) and np.all(sim.ps.x[0] == x_rest)
-    assert np.all(np.isfinite(sim.ps.f[0]))
+    now = sim.gathered("position", "velocity", "force")
+    assert np.all(now["velocity"][0] == 0.0) and np.all(now["position"][0] == rest["position"][0])
+    assert np.all(np.isfinite(now["force"][0]))

@@ -1,27 +1,29 @@
-"""Kernel tests of the contact law against hand computations (jitted and pure Python)."""
+"""Kernel tests of the contact law (contact.model, contact.laws) against hand computations,
+jitted and pure Python."""
 
 import math
 
 import numpy as np
 import pytest
 
-from pardem.contact import contact_law, pair_force
-from pardem.state import Params
-from pardem.stepper import BATCH
+from pardem.contact.model import BATCH, ContactOptions, LawParams, contact_law, pair_force
 
-PRM = Params(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, mu_b_g=0.0, r_in=0.0,
-             omega_in=0.0, r_out=0.0, r_out0=0.0, t_comp=0.0, skin=1e-3, escape_radius=math.inf)
-FULL = (True, True, False, True)  # damping, friction, clip, window
+LAW = LawParams(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, gamma_t=0.05, k_r=100.0,
+                mu_r=0.1)
+FULL = ContactOptions(damping=True, friction=True, clip=False, window=True)
 
 
-def make_law(flags=FULL, jitted=True):
+def law(n, delta, v, spring, opts=FULL, jitted=True, xr=0.0, a_red=0.0, w=(0.0, 0.0)):
+    """contact_law -> (fn, ftx, fty, fr, xix, xiy, xr, flag)."""
     fn = contact_law if jitted else contact_law.py_func
-    return lambda *args: fn(*args, *flags)
+    return fn(n, delta, v, spring, xr, a_red, w, LAW, opts, False)
 
 
-def make_pair(flags=FULL, jitted=True):
+def pair(d, a, dv, w, spring, reach=0.0, opts=FULL, defer=False, jitted=True, xr=0.0):
+    """pair_force -> (active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, flag)."""
     fn = pair_force if jitted else pair_force.py_func
-    return lambda *args: fn(*args, *flags)
+    return fn(d, a, dv, w, spring, xr, reach, LAW, opts, defer)
+
 
 # Hand computation (SPEC §3): a_i = a_j = 5 mm, r_i - r_j = (9 mm, 0) so n = (1, 0), delta = 1 mm;
 # v_i - v_j = (-0.1, 0.2) m/s, w_i = 2, w_j = 4 rad/s -> s = a_i w_i + a_j w_j = 0.03 m/s,
@@ -30,48 +32,84 @@ def make_pair(flags=FULL, jitted=True):
 # f_t = -k_t xi = (0, -4.5407e-3) N < mu f_n = 0.163284 N (sticks);
 # torque on i: l_i = -(a - delta/2) n = (-4.5e-3, 0): tau_i = l_x f_y = 2.043315e-5 N m = tau_j.
 HAND = dict(fx=0.3711, fy=-4.5407e-3, tau=2.043315e-5, xi=(0.0, 1.7e-5))
+HAND_ARGS = ((9e-3, 0.0), (5e-3, 5e-3), (-0.1, 0.2), (2.0, 4.0), (0.0, 0.0))
 
 
 @pytest.mark.parametrize("jitted", [True, False])
 def test_pair_force_matches_hand_computation(jitted):
-    fn = make_pair(jitted=jitted)
-    touching, fx, fy, ti, tj, xix, xiy, sliding = fn(9e-3, 0.0, 5e-3, 5e-3, -0.1, 0.2, 2.0, 4.0,
-                                                     0.0, 0.0, 0.0, PRM)
+    r = pair(*HAND_ARGS, jitted=jitted)
+    touching, fx, fy, ti, tj, fn, ftx, fty, xix, xiy, _, sliding = r
     assert touching and not sliding
     assert fx == pytest.approx(HAND["fx"], rel=1e-12)
     assert fy == pytest.approx(HAND["fy"], rel=1e-12)
+    assert (fn, ftx, fty) == pytest.approx((HAND["fx"], 0.0, HAND["fy"]), rel=1e-12, abs=1e-20)
     assert ti == pytest.approx(HAND["tau"], rel=1e-12)
     assert tj == pytest.approx(HAND["tau"], rel=1e-12)
     assert (xix, xiy) == pytest.approx(HAND["xi"], rel=1e-12, abs=1e-20)
 
 
 def test_sliding_contact_is_capped_at_coulomb():
-    law = make_law()
     # same geometry as the hand case, but a spring pre-loaded far beyond the Coulomb cap
-    fn, ftx, fty, xix, xiy, sliding = law(1.0, 0.0, 1e-3, -0.1, 0.17, 0.0, 0.01, PRM)
+    fn, ftx, fty, _, xix, xiy, _, sliding = law((1.0, 0.0), 1e-3, (-0.1, 0.17), (0.0, 0.01))
     assert sliding
     assert math.hypot(ftx, fty) == pytest.approx(0.44 * abs(fn), rel=1e-14)
-    assert PRM.k_t * math.hypot(xix, xiy) == pytest.approx(0.44 * abs(fn), rel=1e-14)
+    assert LAW.k_t * math.hypot(xix, xiy) == pytest.approx(0.44 * abs(fn), rel=1e-14)
     assert fty < 0  # opposes the stretched spring
 
 
 def test_sticking_contact_stays_below_cap():
-    law = make_law()
-    fn, ftx, fty, xix, xiy, sliding = law(1.0, 0.0, 1e-3, -0.1, 0.17, 0.0, 1e-4, PRM)
+    fn, ftx, fty, _, xix, xiy, _, sliding = law((1.0, 0.0), 1e-3, (-0.1, 0.17), (0.0, 1e-4))
     assert not sliding
-    assert PRM.k_t * math.hypot(xix, xiy) < 0.44 * abs(fn)
-    assert xiy == pytest.approx(1e-4 + 0.17 * PRM.dt, rel=1e-14)
+    assert LAW.k_t * math.hypot(xix, xiy) < 0.44 * abs(fn)
+    assert xiy == pytest.approx(1e-4 + 0.17 * LAW.dt, rel=1e-14)
 
 
 def test_spring_is_projected_into_the_tangent_plane():
-    law = make_law()
     # a spring with a normal component (the contact rotated): only its tangential part survives
-    _, _, _, xix, xiy, _ = law(1.0, 0.0, 1e-3, 0.0, 0.0, 3e-5, 2e-5, PRM)
-    assert xix == 0.0 and xiy == 2e-5
+    r = law((1.0, 0.0), 1e-3, (0.0, 0.0), (3e-5, 2e-5))
+    assert r[4] == 0.0 and r[5] == 2e-5
 
 
-def test_swapping_i_and_j_negates_the_force_bitwise():
-    pair = make_pair()
+def test_tangential_damping_adds_a_viscous_force_and_the_cap_keeps_its_share():
+    """Trial force -k_t xi - gamma_t v_t; at the cap the spring holds k_t xi = -(f_t +
+    gamma_t v_t) (Luding's rule), so the elastic part alone never exceeds what the cap left."""
+    opts = FULL._replace(tangential_damping=True)
+    fn, ftx, fty, _, xix, xiy, _, sliding = law((1.0, 0.0), 1e-3, (-0.1, 0.17), (0.0, 1e-4),
+                                                opts)
+    assert not sliding
+    xi_new = 1e-4 + 0.17 * LAW.dt
+    assert fty == pytest.approx(-LAW.k_t * xi_new - LAW.gamma_t * 0.17, rel=1e-14)
+    assert ftx == 0.0 and xiy == pytest.approx(xi_new, rel=1e-14)
+    fn, ftx, fty, _, xix, xiy, _, sliding = law((1.0, 0.0), 1e-3, (-0.1, 0.17), (0.0, 0.01),
+                                                opts)
+    assert sliding and math.hypot(ftx, fty) == pytest.approx(0.44 * abs(fn), rel=1e-14)
+    assert LAW.k_t * xiy == pytest.approx(-(fty + LAW.gamma_t * 0.17), rel=1e-14)
+
+
+def test_rolling_spring_follows_the_relative_rotation_and_its_limit():
+    """xi_r += a' (w_i - w_j) dt; f_r = -k_r xi_r while |f_r| <= mu_r |f_n|, else capped there
+    with the spring rescaled; the torques on i and j are a' f_r and -a' f_r."""
+    opts = FULL._replace(rolling=True)
+    a_red = 2.5e-3  # two 5 mm disks
+    fn, _, _, fr, _, _, xr, sliding = law((1.0, 0.0), 1e-3, (0.0, 0.0), (0.0, 0.0), opts,
+                                          xr=1e-6, a_red=a_red, w=(3.0, -1.0))
+    assert xr == pytest.approx(1e-6 + a_red * 4.0 * LAW.dt, rel=1e-14)
+    assert fr == pytest.approx(-LAW.k_r * xr, rel=1e-14) and not sliding
+    fn, _, _, fr, _, _, xr, _ = law((1.0, 0.0), 1e-3, (0.0, 0.0), (0.0, 0.0), opts, xr=1e-3,
+                                    a_red=a_red, w=(3.0, -1.0))
+    assert fr == pytest.approx(-LAW.mu_r * fn, rel=1e-14)
+    assert LAW.k_r * xr == pytest.approx(LAW.mu_r * fn, rel=1e-14)
+    r = pair((9e-3, 0.0), (5e-3, 5e-3), (0.0, 0.0), (3.0, -1.0), (0.0, 0.0), opts=opts,
+             xr=1e-6)
+    plain = pair((9e-3, 0.0), (5e-3, 5e-3), (0.0, 0.0), (3.0, -1.0), (0.0, 0.0))
+    fr = -LAW.k_r * r[10]
+    assert r[3] - plain[3] == pytest.approx(a_red * fr, rel=1e-9)
+    assert r[4] - plain[4] == pytest.approx(-a_red * fr, rel=1e-9)
+    assert r[1:3] == plain[1:3]  # no force on the centres
+
+
+@pytest.mark.parametrize("opts", [FULL, FULL._replace(tangential_damping=True, rolling=True)])
+def test_swapping_i_and_j_negates_the_force_bitwise(opts):
     rng = np.random.default_rng(7)
     for _ in range(2000):
         dx, dy = rng.normal(0, 4e-3, 2)
@@ -79,46 +117,48 @@ def test_swapping_i_and_j_negates_the_force_bitwise():
         dvx, dvy = rng.normal(0, 0.1, 2)
         wi, wj = rng.normal(0, 10, 2)
         xix, xiy = rng.normal(0, 1e-4, 2)
-        a = pair(dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, 1e-5, PRM)
-        b = pair(-dx, -dy, aj, ai, -dvx, -dvy, wj, wi, -xix, -xiy, 1e-5, PRM)
+        xr = rng.normal(0, 1e-5)
+        a = pair((dx, dy), (ai, aj), (dvx, dvy), (wi, wj), (xix, xiy), 1e-5, opts, xr=xr)
+        b = pair((-dx, -dy), (aj, ai), (-dvx, -dvy), (wj, wi), (-xix, -xiy), 1e-5, opts,
+                 xr=-xr)
         assert a[0] == b[0]
-        np.testing.assert_array_equal(np.array([a[1], a[2], a[5], a[6]]),
-                                      -np.array([b[1], b[2], b[5], b[6]]))
-        assert a[3] == b[4] and a[4] == b[3]
+        np.testing.assert_array_equal(np.array([a[1], a[2], a[6], a[7], a[8], a[9], a[10]]),
+                                      -np.array([b[1], b[2], b[6], b[7], b[8], b[9], b[10]]))
+        assert a[5] == b[5] and a[3] == b[4] and a[4] == b[3]
 
 
 def test_disabled_terms_vanish():
-    plain = make_law((False, False, False, True))
-    fn, ftx, fty, xix, xiy, _ = plain(1.0, 0.0, 1e-3, -0.1, 0.17, 0.0, 0.5, PRM)
+    plain = FULL._replace(damping=False, friction=False)
+    fn, ftx, fty, fr, xix, xiy, _, _ = law((1.0, 0.0), 1e-3, (-0.1, 0.17), (0.0, 0.5), plain)
     assert fn == pytest.approx(0.3521, rel=1e-14)
-    assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.5)
-    clip = make_law((True, False, True, True))
+    assert (ftx, fty, fr, xix, xiy) == (0.0, 0.0, 0.0, 0.0, 0.5)
+    clip = FULL._replace(friction=False, clip=True)
     # separating fast: damping would make the force attractive; clipping sets it to zero
-    assert clip(1.0, 0.0, 1e-5, 1.0, 0.0, 0.0, 0.0, PRM)[0] == 0.0
+    assert law((1.0, 0.0), 1e-5, (1.0, 0.0), (0.0, 0.0), clip)[0] == 0.0
 
 
 def test_damping_is_weighted_by_the_in_contact_fraction_of_the_step():
     """A contact that starts within the half step around a force sample gets the damping force
     for the in-contact fraction of the sample's window [t - dt/2, t + dt/2] only."""
-    law = make_law()
     vn = -0.1  # approaching at 0.1 m/s: delta_dot = 0.1, overlap changes 5e-6 m per half step
-    half = 0.1 * PRM.dt / 2
-    full = PRM.gamma_n * 0.1
-    assert law(1.0, 0.0, 2 * half, vn, 0.0, 0.0, 0.0, PRM)[0] == pytest.approx(
-        PRM.k_n * 2 * half + full, rel=1e-14)  # deep enough: whole window
-    assert law(1.0, 0.0, 0.0, vn, 0.0, 0.0, 0.0, PRM)[0] == pytest.approx(0.5 * full, rel=1e-14)
+    half = 0.1 * LAW.dt / 2
+    full = LAW.gamma_n * 0.1
+    assert law((1.0, 0.0), 2 * half, (vn, 0.0), (0.0, 0.0))[0] == pytest.approx(
+        LAW.k_n * 2 * half + full, rel=1e-14)  # deep enough: whole window
+    assert law((1.0, 0.0), 0.0, (vn, 0.0), (0.0, 0.0))[0] == pytest.approx(0.5 * full,
+                                                                            rel=1e-14)
     # touches a quarter of a step after the sample: in contact for the last quarter of the window
-    fn, ftx, fty, xix, xiy, _ = law(1.0, 0.0, -0.5 * half, vn, 0.3, 0.0, 0.0, PRM)
+    fn, ftx, fty, _, xix, xiy, _, _ = law((1.0, 0.0), -0.5 * half, (vn, 0.3), (0.0, 0.0))
     assert fn == pytest.approx(0.25 * full, rel=1e-12)
     assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.0)  # no spring before touching
-    assert law(1.0, 0.0, -1.01 * half, vn, 0.0, 0.0, 0.0, PRM)[0] == 0.0
+    assert law((1.0, 0.0), -1.01 * half, (vn, 0.0), (0.0, 0.0))[0] == 0.0
 
 
 @pytest.mark.parametrize("friction", [True, False])
 def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     """The batched pair loop gives the same bits as summing standalone kernel calls in pair order
     (guards against compiler inlining and the SIMD law with deferred branches changing
-    results)."""
+    results), and records each pair's applied normal and tangential force."""
     from helpers import dense_packing, free_scene
 
     from pardem.simulation import Simulation
@@ -128,36 +168,41 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
                                 contact={"mu": 0.02}))
     sim.advance_steps(200)
     ps, pr = sim.ps, sim.pairs
-    xi0 = pr.xi.copy()
-    sim._compute_forces()
+    xi0 = pr.hist.copy()
+    sim.refresh()
     f = np.zeros_like(ps.f)
     tau = np.zeros_like(ps.tau)
-    xi = np.zeros((pr.count[0], 2))
+    count = int(pr.count[0])
+    xi, rec = np.zeros((count, 2)), np.zeros((count, 3))
     n_sliding = 0
-    for k in range(pr.count[0]):
+    for k in range(count):
         i, j = pr.i[k], pr.j[k]
-        xix, xiy = (xi0[k] if friction else (0.0, 0.0))
-        r = pair_force(ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1], ps.radius[i],
-                       ps.radius[j], ps.v_pred[i, 0] - ps.v_pred[j, 0],
-                       ps.v_pred[i, 1] - ps.v_pred[j, 1], ps.w_pred[i], ps.w_pred[j], xix, xiy,
-                       sim.clock.reach[0], sim.prm, True, friction, False, True)
-        xi[k] = r[5:7]
-        n_sliding += r[7]
+        spring = tuple(xi0[k]) if friction else (0.0, 0.0)
+        r = pair_force((ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1]),
+                       (ps.radius[i], ps.radius[j]),
+                       (ps.v_pred[i, 0] - ps.v_pred[j, 0], ps.v_pred[i, 1] - ps.v_pred[j, 1]),
+                       (ps.w_pred[i], ps.w_pred[j]), spring, 0.0, sim.clock.reach[0],
+                       sim.prm.law, sim.contact, False)
+        xi[k] = r[8:10]
+        rec[k] = r[5:8]
+        n_sliding += r[11]
         if r[0]:
             f[i] += r[1:3]
             f[j] -= r[1:3]
             tau[i] += r[3]
             tau[j] += r[4]
     # several batches, the last one partial
-    assert pr.count[0] > 2 * BATCH and pr.count[0] % BATCH
+    assert count > 2 * BATCH and count % BATCH
     if friction:  # the loop's deferred branch, recomputed pair by pair, is exercised
         assert n_sliding > 0
     np.testing.assert_array_equal(ps.f, f)
     np.testing.assert_array_equal(ps.tau, tau)
+    np.testing.assert_array_equal(pr.fn[:count], rec[:, 0])
+    np.testing.assert_array_equal(pr.ft[:count], rec[:, 1:])
     if friction:
-        np.testing.assert_array_equal(pr.xi[:pr.count[0]], xi)
+        np.testing.assert_array_equal(pr.hist[:count], xi)
     else:  # a frictionless scene stores no springs
-        assert pr.xi.size == 0 and not xi.any()
+        assert pr.hist.size == 0 and not xi.any()
 
 
 @pytest.mark.parametrize("jitted", [True, False])
@@ -165,9 +210,9 @@ def test_deferred_law_is_exact_or_asks_for_a_redo(jitted):
     """The batched loop computes every pair with the rare branches deferred and redoes the
     flagged ones. That is exact only if an unflagged result has the same bits as the full law,
     and every contact that slides or is within half a step of touching is flagged."""
-    pair = pair_force if jitted else pair_force.py_func
     rng = np.random.default_rng(11)
     flagged = {"sliding": 0, "window": 0, "plain": 0}
+    opts = FULL._replace(rolling=True, tangential_damping=True)
     for _ in range(3000):
         ai, aj = rng.uniform(3e-3, 5e-3, 2)
         dist = (ai + aj) * rng.uniform(0.97, 1.01)
@@ -176,20 +221,22 @@ def test_deferred_law_is_exact_or_asks_for_a_redo(jitted):
         dvx, dvy = rng.normal(0, 0.3, 2)
         wi, wj = rng.normal(0, 30, 2)
         xix, xiy = rng.normal(0, 2e-4, 2)
-        args = (dx, dy, ai, aj, dvx, dvy, wi, wj, xix, xiy, 2e-4, PRM, *FULL)
-        full, deferred = pair(*args, False), pair(*args, True)
+        xr = rng.normal(0, 1e-4)
+        args = ((dx, dy), (ai, aj), (dvx, dvy), (wi, wj), (xix, xiy), 2e-4, opts)
+        full = pair(*args, defer=False, jitted=jitted, xr=xr)
+        deferred = pair(*args, defer=True, jitted=jitted, xr=xr)
         # the window is partial while the overlap is below half a step's change of it
         nx, ny = dx / dist, dy / dist
         s = ai * wi + aj * wj
         vn = (dvx + s * ny) * nx + (dvy - s * nx) * ny
-        window = full[0] and ai + aj - dist < 0.5 * abs(vn) * PRM.dt
+        window = full[0] and ai + aj - dist < 0.5 * abs(vn) * LAW.dt
         assert deferred[0] == full[0]
-        if full[7] or window:
-            assert deferred[7]
-            flagged["sliding" if full[7] else "window"] += 1
+        if full[11] or window:
+            assert deferred[11]
+            flagged["sliding" if full[11] else "window"] += 1
         else:
-            assert not deferred[7]
-            bits = [np.array(r[1:7]).view(np.int64) for r in (deferred, full)]
+            assert not deferred[11]
+            bits = [np.array(r[1:11]).view(np.int64) for r in (deferred, full)]
             np.testing.assert_array_equal(*bits)
             flagged["plain"] += full[0]
     assert min(flagged.values()) > 100, flagged

@@ -5,8 +5,8 @@ import pytest
 from helpers import couette_scene
 
 from averaging.boundary import inner_ring_torque
-from pardem.neighbors import brute_force_pairs
 from pardem.simulation import Simulation
+from pardem.testing import brute_force_pairs
 
 
 def test_verlet_list_always_holds_every_touching_pair():
@@ -34,16 +34,13 @@ def test_trajectory_does_not_depend_on_the_skin():
         sim = Simulation(couette_scene(counts=(400, 60), geometry=geometry,
                                        neighbors={"skin": skin} if skin else None))
         sim.advance_steps(12000)
-        n = int(sim.clock.n_local[0])
-        o = np.argsort(sim.ps.gid[:n])
-        runs.append((sim.n_rebuilds, [a[:n][o] for a in (sim.ps.x, sim.ps.v, sim.ps.omega,
-                                                         sim.ps.xi_wall)],
-                     sim._spring_history()))
+        runs.append((sim.n_rebuilds, sim.checkpoint_state()[0]))
     assert runs[0][0] > runs[1][0] > runs[2][0] > 1
-    assert runs[0][2][0].size > 300  # loaded contacts, not a dilute gas
-    for _, arrays, springs in runs[1:]:
-        for a, b in zip(arrays + list(springs), runs[0][1] + list(runs[0][2])):
-            np.testing.assert_array_equal(a, b)
+    assert runs[0][1]["pair_lo"].size > 300  # loaded contacts, not a dilute gas
+    for _, state in runs[1:]:
+        for key in ("x", "v", "omega", "hist_wall", "pair_lo", "pair_hi", "pair_hist",
+                    "pair_force"):
+            np.testing.assert_array_equal(state[key], runs[0][1][key], key)
 
 
 def test_full_pair_list_is_grown_with_its_springs():
@@ -57,17 +54,20 @@ def test_full_pair_list_is_grown_with_its_springs():
     full, roomy = runs
     p, count, n_wall = full.pairs, int(full.pairs.count[0]), int(full.pairs.wall_count[0])
     room = roomy.pairs
-    full.pairs = type(p)(p.i[:count].copy(), p.j[:count].copy(), p.xi[:count].copy(),
-                         p.count.copy(), p.wall[:n_wall].copy(), p.wall_count.copy())
+    full.pairs = p._replace(i=p.i[:count].copy(), j=p.j[:count].copy(),
+                            hist=p.hist[:count].copy(), fn=p.fn[:count].copy(),
+                            ft=p.ft[:count].copy(), count=p.count.copy(),
+                            wall=p.wall[:n_wall].copy(), wall_count=p.wall_count.copy(),
+                            wall_fn=p.wall_fn[:n_wall].copy(), wall_ft=p.wall_ft[:n_wall].copy())
     for sim in runs:
         sim.prm = sim.prm._replace(skin=2.0 * sim.prm.skin)  # a longer list
         sim.refresh()
     assert roomy.pairs is room  # the twin's lists had room
     assert full.pairs.count[0] > count and full.pairs.wall_count[0] > n_wall
     assert full.pairs.count[0] == roomy.pairs.count[0]
-    springs = full._spring_history()
+    springs = full.history_table()
     assert springs[0].size > 100
-    for a, b in zip(springs, roomy._spring_history()):
+    for a, b in zip(springs, roomy.history_table()):
         np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(full.ps.f, roomy.ps.f)
 
@@ -90,7 +90,8 @@ def sheared_b():
         sim.run(end=5.0 + 0.1 * (k + 1), progress=False)
         sim.torques.append(inner_ring_torque(sim.particle_arrays(), sim.contacts(),
                                              sim.ring_contacts()))
-        x, v = sim.ps.x[: sim.n_free], sim.ps.v[: sim.n_free]
+        state = sim.gathered("position", "velocity")
+        x, v = state["position"][: sim.n_free], state["velocity"][: sim.n_free]
         r = np.hypot(x[:, 0], x[:, 1])
         ring = ((r - 0.1035) / 8e-3).astype(int)
         np.add.at(total, ring, (x[:, 0] * v[:, 1] - x[:, 1] * v[:, 0]) / r / (0.1 * 0.1035))
@@ -99,14 +100,28 @@ def sheared_b():
 
 
 def test_compressed_packing_is_stable(sheared_b):
+    """Overlaps stay small, nobody leaves the cell, and the kinetic energy is that of a shear
+    band: at most what the disks within 4 d~ of the inner ring would have if every one of them
+    moved and rolled at the ring's speed, (3/4) M_band (Omega R_i)^2 (translation m v^2/2 plus
+    rotation I w^2/2 = m v^2/4 for I = m a^2/2). Every disk of the cell moving at that speed
+    would have several times more."""
     sim, overlap, _ = sheared_b
     print(f"\n largest overlap / d: t = 5 s {overlap:.4f}, at t = 7 s "
           f"{sim.max_overlap():.4f}")
     assert overlap < 0.05
     assert sim.max_overlap() < 0.05
-    r = np.hypot(*sim.ps.x[: sim.n_free].T)
+    s = sim.gathered("position", "mass")
+    r = np.hypot(*s["position"][: sim.n_free].T)
     assert r.min() > 0.1035 and r.max() < 0.2525
-    assert sim.kinetic_energy() < 1e-4  # J; the packing is not exploding
+    mass = s["mass"][: sim.n_free]
+    speed = 0.1 * 0.1035  # Omega R_i
+    band = 0.75 * mass[r - 0.1035 < 4 * 8e-3].sum() * speed**2
+    whole = 0.75 * mass.sum() * speed**2
+    e_kin = sim.kinetic_energy()
+    print(f" E_kin {e_kin:.3g} J; the band at ring speed {band:.3g} J, the whole cell "
+          f"{whole:.3g} J")
+    assert whole > 3 * band
+    assert 0 < e_kin < band
 
 
 def test_inner_ring_drags_a_shear_band(sheared_b):
@@ -132,17 +147,23 @@ def test_ring_averages_show_the_papers_physics(sheared_b):
     near, bulk = rt < 3, (rt > 5) & (rt < 10)
     print(f"\nnu: r~ < 3: {f['nu'][near].mean():.3f}, 5 < r~ < 10: {f['nu'][bulk].mean():.3f}")
     assert f["nu"][near].mean() < f["nu"][bulk].mean() - 0.02  # dilated zone at the ring
-    assert 0.3 < f["fit_v0"] < 1.5 and 0.5 < f["fit_s"] < 4.0
+    # a layer cannot outrun the wall, and the band is a few diameters wide (the paper:
+    # s = 1.2-1.7 d~ in steady state; here, 3 s after the start of the shear, wider)
+    assert f["v_phi_norm"][rt < 1].max() < 1.0 + 3 * np.nanmax(f["v_phi_norm_err"][rt < 1])
+    assert f["fit_v0"] < 1.5 and 1.0 < f["fit_s"] < 2.5
     fit_range = (rt >= 0.25) & (rt <= 8.1) & (f["v_phi_norm"] > 0)
     assert fit_range.sum() >= 40
     misfit = np.abs(np.log(f["v_phi_norm"][fit_range] / f["fit_v0"]) + rt[fit_range] / f["fit_s"])
     print(f"v_phi fit: v0 {f['fit_v0']:.3f}, s {f['fit_s']:.3f}; |log(v / fit)| median "
           f"{np.median(misfit):.3f}, max {misfit.max():.3f} over {fit_range.sum()} rings")
     assert np.median(misfit) < np.log(1.5) and misfit.max() < np.log(3.0)
-    np.testing.assert_allclose(f["tr_F"], f["nu"] * f["C"], rtol=1e-10, atol=1e-12)
-    h = sim.scene.contact.height
-    carried = 2 * np.pi * h * f["r"] ** 2 * f["sigma_phir"]  # N m, per ring
-    np.testing.assert_allclose(carried, f["shear_torque"], rtol=1e-12)
+    # the paper's tr F ~ nu C, C the contacts per particle (an approximation: tr F is nu
+    # times the volume-weighted mean contact number, C the number-weighted one)
+    loaded = (rt > 1) & (f["C_number"] > 0)
+    ratio = f["tr_F"][loaded] / (f["nu"][loaded] * f["C_number"][loaded])
+    print(f"tr F / (nu C): median {np.median(ratio):.3f}")
+    assert abs(np.median(ratio) - 1) < 0.05
+    carried = f["shear_torque"]  # 2 pi h r^2 sigma_phir, N m, per ring
     zone = (rt > 1) & (rt < 15)
     mean, spread = carried[zone].mean(), carried[zone].std()
     torque = np.array(sim.torques)

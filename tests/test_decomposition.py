@@ -6,7 +6,7 @@ import math
 import numpy as np
 import pytest
 
-from pardem import sectors
+from pardem.parallel import sectors
 from pardem.state import (FREE, new_particles, packed, particle_fields, row_columns, row_width,
                           unpack_particles)
 
@@ -59,7 +59,7 @@ def test_distance_is_to_the_nearest_boundary_ray(name):
         np.testing.assert_allclose(sec.distance(x, rank), expected, rtol=1e-12, atol=1e-17)
 
 
-@pytest.mark.parametrize("hist", [0, 2, 4])
+@pytest.mark.parametrize("hist", [0, 2, 3, 5])
 def test_packed_rows_come_back_unchanged(hist):
     ps = new_particles(50, hist)
     rng = np.random.default_rng(5)
@@ -82,5 +82,5 @@ def test_packed_rows_come_back_unchanged(hist):
             assert getattr(back, k).dtype == getattr(ps, k).dtype
             np.testing.assert_array_equal(getattr(back, k)[2:2 + idx.size], getattr(ps, k)[idx])
             assert not getattr(back, k)[:2].any() and not getattr(back, k)[2 + idx.size:].any()
-    assert not hist or cols["xi_wall"].stop == row_width(hist)
-    assert not hist or cols["xi_wall"].stop - cols["xi_wall"].start == hist
+    assert not hist or cols["hist_wall"].stop == row_width(hist)
+    assert not hist or cols["hist_wall"].stop - cols["hist_wall"].start == hist

@@ -15,8 +15,8 @@ import numpy as np
 import pytest
 from helpers import D_SMALL, K_T, couette_scene, free_scene
 
-from averaging.collect import sample_simulation
-from averaging.rings import RingAverager
+from averaging.sample import sample_simulation
+from averaging.timeavg import RingAverager
 from pardem.output.snapshots import read_snapshots
 from pardem.simulation import Simulation
 
@@ -138,8 +138,8 @@ def test_tracking_eta_leaves_the_trajectory_and_costs_a_history_only_where_read(
     a, b = (r.checkpoint_state()[0] for r in runs)
     for key in ("x", "v", "omega", "theta", "f", "tau"):
         assert np.array_equal(a[key], b[key]), key
-    assert np.array_equal(a["pair_xi"], b["pair_xi"][:, :2])
-    assert np.array_equal(a["xi_wall"], b["xi_wall"][:, :2])
+    assert np.array_equal(a["pair_hist"], b["pair_hist"][:, :2])
+    assert np.array_equal(a["hist_wall"], b["hist_wall"][:, :2])
     frictionless = _shear_cell(end=0.01)
     frictionless = dataclasses.replace(frictionless, effects=dataclasses.replace(
         frictionless.effects, tangential_friction=False))
@@ -164,4 +164,4 @@ def test_a_checkpoint_without_eta_restarts_with_eta_from_the_spring(tmp_path):
     a, b = again.checkpoint_state()[0], ref.checkpoint_state()[0]
     for key in ("x", "v", "omega", "f", "tau"):
         assert np.array_equal(a[key], b[key]), key
-    assert np.array_equal(a["pair_xi"][:, :2], b["pair_xi"])
+    assert np.array_equal(a["pair_hist"][:, :2], b["pair_hist"])

@@ -2,7 +2,9 @@
 
 import numpy as np
 
-from pardem.neighbors import brute_force_pairs, build_pairs, carry_history, gid_order
+from pardem.contact.history import carry_history
+from pardem.neighbors import build_pairs, gid_order
+from pardem.testing import brute_force_pairs
 
 
 def random_dense(n, seed):

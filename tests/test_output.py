@@ -16,7 +16,7 @@ from helpers import couette_scene, kill_when
 
 import pardem
 from averaging.mesh import SEGMENTS
-from averaging.rings import read_rings
+from averaging.io import read_rings
 from pardem.scene import write_scene
 from pardem.simulation import Simulation
 
@@ -109,7 +109,10 @@ def test_contacts_xdmf_lines_join_the_touching_centres(run):
     assert set(np.unique(sliding)) <= {0, 1}
     mu = pardem.load_scene(out / "scene.toml").contact.mu
     ratio = np.hypot(*contacts["tangential_force"].T) / (mu * np.abs(contacts["normal_force"]))
-    np.testing.assert_array_equal(sliding == 1, ratio >= 0.999)
+    # the applied forces: a sliding contact sits on the Coulomb limit to rounding, no contact
+    # exceeds it, and some stick just below it
+    assert sliding.sum() > 10 and np.all(np.abs(ratio[sliding == 1] - 1) < 1e-12)
+    assert np.all(ratio[sliding == 0] < 1)
 
 
 def test_rings_vtu_carries_the_ring_fields(run):

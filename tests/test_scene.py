@@ -20,10 +20,10 @@ from pardem.scene import (
     scene_to_toml,
     write_scene,
 )
+from pardem.contact.model import restitution
 from pardem.timestep import (
     contact_time,
     resolve_dt,
-    restitution,
     smallest_contact_time,
     smallest_reduced_mass,
 )

@@ -108,5 +108,5 @@ def test_every_layout_runs_bitwise_identically_on_1_and_2_ranks(tmp_path, name):
     ref = dump_state(path, steps, tmp_path / "r1.npz", 1)
     got = dump_state(path, steps, tmp_path / "r2.npz", 2)
     assert got["migrated"] > 0
-    assert ref["pair_xi"].shape[1] == 4  # eta averages: the spring and eta migrate, compare
+    assert ref["pair_hist"].shape[1] == 4  # eta averages: the spring and eta migrate, compare
     assert_same_state(ref, got, f"{name}: 2 ranks vs 1")

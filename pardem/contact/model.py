@@ -74,6 +74,40 @@ def options_for(effects, integrator: str, eta: bool) -> ContactOptions:
         eta=eta)
 
 
+# an optional slot's [effects] switch -> (the effect it needs and why, its [contact] parameters
+# that must be > 0 when on, its other parameters); none may be set while the slot is off
+SLOT_KEYS = {
+    "tangential_damping": ("tangential_friction", "it damps the tangential spring",
+                           ("gamma_t",), ()),
+    "rolling_resistance": ("rotation", "it resists the disks' relative rotation", ("k_r",),
+                           ("mu_r",)),
+}
+PARAMETER_UNITS = {"gamma_t": "kg/s", "k_r": "N/m", "mu_r": ""}
+
+
+def check_slots(c: dict, e: dict) -> None:
+    """SceneError unless every switched-on slot has its parameters ([contact] c and [effects]
+    e as dicts), and no slot's parameter is set while the slot is off."""
+    from ..values import fail
+
+    if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
+        raise fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
+                   "tangential_friction is on and mu > 0", "N/m")
+    for switch, (needs, why, positive, optional) in SLOT_KEYS.items():
+        if e[switch]:
+            if not e[needs]:
+                raise fail("[effects]", switch, True, f"needs [effects] {needs} = true ({why})")
+            for name in positive:
+                if not c[name] > 0:
+                    raise fail("[contact]", name, c[name], f"must be > 0 when [effects] "
+                               f"{switch} is on", PARAMETER_UNITS[name])
+            continue
+        for name in positive + optional:
+            if c[name] != 0:
+                raise fail("[contact]", name, c[name], f"is set but [effects] {switch} is off; "
+                           f"switch it on or remove {name}", PARAMETER_UNITS[name])
+
+
 def law_params(contact, dt: float) -> LawParams:
     """LawParams from a scene's [contact] table and the time step (s)."""
     return LawParams(dt, contact.k_n, contact.gamma_n, contact.k_t, contact.mu,

@@ -3,22 +3,24 @@
     python tests/hard/mutations.py
 
 Each mutation edits one source file (the guard removed or weakened), runs the one test that
-must catch it, and restores the file, whatever happens. Run by hand (minutes: each mutation
-recompiles the kernels it touches); the outcome is recorded in tests/hard/README.md.
+must catch it, and restores the file, whatever happens. A mutation of compiled code gets a
+fresh numba cache by itself (pardem/jit.py keys the cache by the sources). CI runs this after
+the test suite (.ci/run); it exits non-zero if a mutation survives or the list went stale.
 """
 
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 HARD = "tests/hard/"
 MUTATIONS = [  # (guard, file, its text, the text without it, the test that must catch it)
-    ("Coulomb cap at |f_t| = mu|f_n| = 0 (strict >)", "pardem/contact.py",
-     "if ft2 > fmax * fmax:", "if ft2 >= fmax * fmax:",
+    ("Coulomb cap at |f_t| = mu|f_n| = 0 (strict >)", "pardem/contact/laws.py",
+     "if cl_ft2 > cl_fmax * cl_fmax:", "if cl_ft2 >= cl_fmax * cl_fmax:",
      HARD + "test_contacts_hard.py::"
      "test_contact_law_with_zero_tangential_velocity_and_zero_spring"),
-    ("bottom friction at rest (speed <= dv)", "pardem/stepper.py",
+    ("bottom friction at rest (speed <= dv)", "pardem/integrate.py",
      "            rest = speed <= dv", "            rest = False",
      HARD + "test_contacts_hard.py::"
      "test_disk_at_rest_with_bottom_friction_stays_exactly_at_rest"),
@@ -26,17 +28,17 @@ MUTATIONS = [  # (guard, file, its text, the text without it, the test that must
      "    g = scene.geometry\n    if g is None:\n        return\n    worst = ",
      "    g = scene.geometry\n    if g is None or True:\n        return\n    worst = ",
      HARD + "test_packings_hard.py::test_ring_too_fast_for_the_contact_law_is_refused"),
-    ("watchdog: centre beyond the current ring line", "pardem/stepper.py",
-     "        hi2, lo2 = r_hi * r_hi, prm.r_in * prm.r_in",
-     "        hi2, lo2 = 1.0, prm.r_in * prm.r_in",
+    ("watchdog: centre beyond the current ring line", "pardem/integrate.py",
+     "        hi2, lo2 = r_hi * r_hi, prm.rings.r_in * prm.rings.r_in",
+     "        hi2, lo2 = 1.0, prm.rings.r_in * prm.rings.r_in",
      HARD + "test_parallel_hard.py::"
      "test_watchdog_names_the_particle_and_keeps_the_last_checkpoint"),
-    ("watchdog: NaN", "pardem/stepper.py",
+    ("watchdog: NaN", "pardem/integrate.py",
      "        n_bad += 0 if lo2 <= r2 <= hi2 else 1  # also counts NaN",
      "        n_bad += 1 if r2 < lo2 or r2 > hi2 else 0  # NaN slips through",
      HARD + "test_parallel_hard.py::test_watchdog_on_two_ranks_stops_every_rank"),
-    ("checkpoint content checks", "pardem/simulation.py",
-     "        _check_restored(path, arrays, ps)\n", "",
+    ("checkpoint content checks", "pardem/output/restart.py",
+     "    _check_restored(path, arrays, ps)\n", "",
      HARD + "test_files_hard.py::test_corrupted_checkpoint_is_refused"),
     ("placement within the band", "pardem/placement.py",
      "room = np.maximum(np.minimum(0.5 * spacing - radius, band), 0.0) * 0.99",
@@ -49,7 +51,7 @@ MUTATIONS = [  # (guard, file, its text, the text without it, the test that must
      "        outer = 1.0 if k == k_hi else inside_share(",
      "        outer = 1.0 if k == n_rings - 1 else inside_share(",
      HARD + "test_parallel_hard.py::test_ring_edges_in_the_averaging"),
-    ("block errors of all-NaN rings", "averaging/rings.py",
+    ("block errors of all-NaN rings", "averaging/timeavg.py",
      "block_error(np.array([p[key] for p in per]))",
      "np.nanstd(np.array([p[key] for p in per]), axis=0, ddof=1)",
      HARD + "test_packings_hard.py::test_rings_without_contacts_are_nan_marked_not_a_crash"),
@@ -61,6 +63,7 @@ def main() -> int:
     if stale:  # checked before any file is touched
         sys.exit("the source changed, update MUTATIONS:\n  " + "\n  ".join(stale))
     survivors = 0
+    start = time.perf_counter()
     for label, rel, old, new, test in MUTATIONS:
         path = ROOT / rel
         text = path.read_text()
@@ -74,6 +77,8 @@ def main() -> int:
         caught = proc.returncode != 0
         survivors += not caught
         print(f"{label:50s} -> {'caught' if caught else 'NOT CAUGHT'} by {test}", flush=True)
+    print(f"{len(MUTATIONS) - survivors} of {len(MUTATIONS)} caught in "
+          f"{time.perf_counter() - start:.0f} s", flush=True)
     return survivors
 
 

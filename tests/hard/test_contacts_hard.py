@@ -39,17 +39,19 @@ def test_violent_impact_stays_finite_and_loses_energy(offset):
     analytic one (head on), energy after <= energy before, momentum conserved."""
     v = 2.1  # m/s each, 4.2 m/s closing speed
     sim = pair(D_SMALL * 1.05, vx1=v, vx2=-v, y2=offset)
-    e0, p0 = energy(sim), sim.ps.v[:2].sum(axis=0) * M_SMALL
+    e0, p0 = energy(sim), sim.gathered("velocity")["velocity"].sum(axis=0) * M_SMALL
     deepest = 0.0
     for _ in range(400):
         sim.advance_steps(1)
-        d = np.hypot(*(sim.ps.x[0] - sim.ps.x[1]))
+        x = sim.gathered("position")["position"]
+        d = np.hypot(*(x[0] - x[1]))
         deepest = max(deepest, D_SMALL - d)
-    assert np.all(np.isfinite(sim.ps.x[:2])) and np.all(np.isfinite(sim.ps.v[:2]))
+    s = sim.gathered("position", "velocity")
+    assert np.all(np.isfinite(s["position"])) and np.all(np.isfinite(s["velocity"]))
     assert d > D_SMALL  # separated again
     e1 = energy(sim)
     assert e1 <= e0
-    np.testing.assert_allclose(sim.ps.v[:2].sum(axis=0) * M_SMALL, p0, atol=1e-15)
+    np.testing.assert_allclose(s["velocity"].sum(axis=0) * M_SMALL, p0, atol=1e-15)
     if offset == 0.0:
         expected = analytic_max_overlap(2 * v, M_SMALL / 2)
         assert expected / D_SMALL > 0.19
@@ -68,11 +70,12 @@ def test_zero_tangential_velocity_and_zero_spring(mu):
         effects=ALL, contact={"mu": mu}))
     for _ in range(300):
         sim.advance_steps(1)
-        assert np.all(np.abs(sim.pairs.xi[0]) < 1e-18)
-        assert sim.pairs.xi[0, 1] == 0.0
-    assert np.all(sim.ps.omega[:2] == 0.0) and np.all(sim.ps.x[:2, 1] == 0.0)
-    assert np.all(sim.ps.v[:2, 1] == 0.0) and np.all(np.isfinite(sim.ps.v[:2]))
-    assert sim.ps.v[1, 0] > 0.0  # the collision happened
+        springs = sim.history_table()[2]  # the live springs: this one pair, while it touches
+        assert np.all(np.abs(springs) < 1e-18) and np.all(springs[:, 1] == 0.0)
+    s = sim.gathered("position", "velocity", "omega")
+    assert np.all(s["omega"] == 0.0) and np.all(s["position"][:, 1] == 0.0)
+    assert np.all(s["velocity"][:, 1] == 0.0) and np.all(np.isfinite(s["velocity"]))
+    assert s["velocity"][1, 0] > 0.0  # the collision happened
 
 
 def test_disks_touching_at_exactly_zero_overlap():
@@ -81,19 +84,22 @@ def test_disks_touching_at_exactly_zero_overlap():
     assert math.sqrt(D_SMALL**2) == D_SMALL  # the set-up really has delta = 0 exactly
     sim = pair(D_SMALL)
     sim.advance_steps(500)
-    assert sim.ps.x[1, 0] == D_SMALL and sim.ps.x[0, 0] == 0.0
-    assert np.all(sim.ps.v[:2] == 0.0) and np.all(sim.ps.f[:2] == 0.0)
+    s = sim.gathered("position", "velocity", "force")
+    assert s["position"][1, 0] == D_SMALL and s["position"][0, 0] == 0.0
+    assert np.all(s["velocity"] == 0.0) and np.all(s["force"] == 0.0)
     moving = pair(D_SMALL, vx1=0.05)
     moving.advance_steps(300)
-    assert moving.ps.v[1, 0] > 0 and np.all(np.isfinite(moving.ps.v[:2]))
-    assert moving.ps.v[0, 0] < moving.ps.v[1, 0]
+    v = moving.gathered("velocity")["velocity"]
+    assert v[1, 0] > 0 and np.all(np.isfinite(v))
+    assert v[0, 0] < v[1, 0]
 
 
 def test_disk_at_rest_with_bottom_friction_stays_exactly_at_rest():
     sim = Simulation(free_scene([{"x": 0.0, "y": 0.0, "diameter": D_SMALL, "mass": M_SMALL}],
                                 effects=ALL))
     sim.advance_steps(2000)
-    assert np.all(sim.ps.v[0] == 0.0) and np.all(sim.ps.x[0] == 0.0)
+    s = sim.gathered("position", "velocity")
+    assert np.all(s["velocity"][0] == 0.0) and np.all(s["position"][0] == 0.0)
 
 
 @pytest.mark.parametrize("mu", [0.44, 0.0])
@@ -102,14 +108,11 @@ def test_contact_law_with_zero_tangential_velocity_and_zero_spring(mu, compiled)
     """The kernel itself, with n exactly along an axis: the tangential velocity and the spring
     are exactly zero, so |f_t|^2 = 0; with mu = 0 also mu |f_n| = 0, where a non-strict Coulomb
     test would compute 0/0. Force, spring and sliding flag come out exact."""
-    from pardem.contact import contact_law
-    from pardem.state import Params
+    from pardem.contact.model import ContactOptions, LawParams, contact_law
 
     law = contact_law if compiled else contact_law.py_func
-    prm = Params(dt=4.353e-5, k_n=K_N, gamma_n=GAMMA_N, k_t=267.1, mu=mu, mu_b_g=0.0, r_in=0.0,
-                 omega_in=0.0, r_out=0.0, r_out0=0.0, t_comp=0.0, skin=7e-4,
-                 escape_radius=math.inf)
-    fn, ftx, fty, xix, xiy, sliding = law(1.0, 0.0, 1e-4, -0.1, 0.0, 0.0, 0.0, prm,
-                                         True, True, False, True)
+    prm = LawParams(dt=4.353e-5, k_n=K_N, gamma_n=GAMMA_N, k_t=267.1, mu=mu)
+    fn, ftx, fty, _, xix, xiy, _, sliding = law((1.0, 0.0), 1e-4, (-0.1, 0.0), (0.0, 0.0), 0.0,
+                                                0.0, (0.0, 0.0), prm, ContactOptions(), False)
     assert fn == K_N * 1e-4 + GAMMA_N * 0.1
     assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.0) and not sliding

@@ -39,13 +39,13 @@ def damaged(checkpoint, tmp_path, edit):
 @pytest.mark.parametrize("what,edit,message", [
     ("garbage in a position", lambda h5: h5["x"].__setitem__((5, 0), np.nan),
      "non-finite x in row 5"),
-    ("garbage in a spring", lambda h5: h5["pair_xi"].__setitem__((0, 1), np.inf),
-     "non-finite pair_xi in row 0"),
+    ("garbage in a spring", lambda h5: h5["pair_hist"].__setitem__((0, 1), np.inf),
+     "non-finite pair_hist in row 0"),
     ("a radius changed", lambda h5: h5["radius"].__setitem__(3, 1.0), "radius of particle row 3"),
     ("particles swapped", lambda h5: h5["gid"].__setitem__(slice(0, 2), [1, 0]),
      "gid of particle row 0"),
     ("springs of non-pairs", lambda h5: h5["pair_hi"].__setitem__(0, -1),
-     "spring keys are not pairs"),
+     "pair_lo/pair_hi are not pairs"),
 ])
 def test_corrupted_checkpoint_is_refused(checkpoint, tmp_path, what, edit, message):
     bad = damaged(checkpoint, tmp_path, edit)

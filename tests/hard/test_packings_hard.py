@@ -25,8 +25,9 @@ def compress_and_relax(counts, t_relax: float):
         overlap = max(overlap, sim.max_overlap())
         if k % 5 == 0:
             energy.append(sim.kinetic_energy())
-    assert np.all(np.isfinite(sim.ps.x)) and np.all(np.isfinite(sim.ps.v))
-    r = np.hypot(*sim.ps.x[: sim.n_free].T)
+    s = sim.gathered("position", "velocity")
+    assert np.all(np.isfinite(s["position"])) and np.all(np.isfinite(s["velocity"]))
+    r = np.hypot(*s["position"][: sim.n_free].T)
     assert r.min() > 0.1035 and r.max() < 0.2525  # nobody escaped
     return scene, overlap, np.array(energy), sim
 
@@ -58,14 +59,15 @@ def test_inner_ring_stopped_reversed_and_100x_faster(omega):
     for k in range(1, 25):  # the largest overlap, sampled every 0.025 s
         sim.run(end=0.025 * k, progress=False)
         overlap = max(overlap, sim.max_overlap())
-    free = slice(0, sim.n_free)
-    assert np.all(np.isfinite(sim.ps.x[free])) and np.all(np.isfinite(sim.ps.v[free]))
-    r = np.hypot(*sim.ps.x[free].T)
+    s = sim.gathered("position", "velocity")
+    xf, vf = s["position"][: sim.n_free], s["velocity"][: sim.n_free]
+    assert np.all(np.isfinite(xf)) and np.all(np.isfinite(vf))
+    r = np.hypot(*xf.T)
     assert r.min() > 0.05 and r.max() < 0.09
     print(f"\nomega_inner = {omega} rad/s: largest overlap {100 * overlap:.1f} % of d")
     assert overlap < MAX_IMPACT_OVERLAP  # what the speed guard promises
     near = r < 0.05 + 1.2 * 7.42e-3
-    x, v = sim.ps.x[free][near], sim.ps.v[free][near]
+    x, v = xf[near], vf[near]
     v_phi = np.mean((x[:, 0] * v[:, 1] - x[:, 1] * v[:, 0]) / r[near])
     if omega == 0.0:
         assert abs(v_phi) < 1e-3

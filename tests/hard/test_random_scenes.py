@@ -67,15 +67,16 @@ def test_random_free_scenes_stay_finite(particles, effects):
     except SceneError as e:
         refused(e)
     event("ran: all effects on" if effects else "ran: all effects off")
-    n = sim.n_free
-    p0 = (sim.ps.v[:n] / sim.ps.inv_mass[:n, None]).sum(axis=0)
+    s0 = sim.gathered("velocity", "mass")
+    p0 = (s0["velocity"] * s0["mass"][:, None]).sum(axis=0)
     sim.advance_steps(300)
-    assert np.all(np.isfinite(sim.ps.x[:n])) and np.all(np.isfinite(sim.ps.v[:n]))
-    assert np.all(np.isfinite(sim.ps.omega[:n]))
+    s = sim.gathered("position", "velocity", "omega", "mass")
+    assert np.all(np.isfinite(s["position"])) and np.all(np.isfinite(s["velocity"]))
+    assert np.all(np.isfinite(s["omega"]))
     if not effects:  # no bottom friction: contacts conserve momentum
-        p1 = (sim.ps.v[:n] / sim.ps.inv_mass[:n, None]).sum(axis=0)
-        scale = np.abs(sim.ps.v[:n] / sim.ps.inv_mass[:n, None]).sum() + 1e-30
-        assert np.all(np.abs(p1 - p0) <= 1e-12 * scale)
+        mv = s["velocity"] * s["mass"][:, None]
+        scale = np.abs(mv).sum() + 1e-30
+        assert np.all(np.abs(mv.sum(axis=0) - p0) <= 1e-12 * scale)
 
 
 @SETTINGS
@@ -97,9 +98,10 @@ def test_random_couette_cells_stay_finite_and_inside(counts, omega, t_comp, seed
         sim.advance_steps(1500)  # through most of the compression
     except SimulationError as e:  # pragma: no cover - this is the failure hypothesis looks for
         raise AssertionError(f"{e}") from e
-    free = slice(0, sim.n_free)
-    assert np.all(np.isfinite(sim.ps.x[free])) and np.all(np.isfinite(sim.ps.v[free]))
-    r = np.hypot(*sim.ps.x[free].T)
+    s = sim.gathered("position", "velocity")
+    x, v = s["position"][: sim.n_free], s["velocity"][: sim.n_free]
+    assert np.all(np.isfinite(x)) and np.all(np.isfinite(v))
+    r = np.hypot(*x.T)
     assert r.min() > 0.05 and r.max() < 0.11
 
 

@@ -13,8 +13,8 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
-from pardem import sectors
-from pardem.decomposition import HIST_BINS
+from pardem.parallel import sectors
+from pardem.parallel.serial import HIST_BINS
 from pardem.placement import initial_configuration
 from pardem.scene import load_scene
 from pardem.simulation import Simulation
@@ -27,12 +27,9 @@ edges = sectors.balanced(sectors.angle_histogram(init.x[:init.n_free], HIST_BINS
 g = scene.geometry
 r_mid = 0.5 * (g.inner_radius + g.outer_radius)
 sim = Simulation(scene, comm=comm)
-for gid, angle in ((0, edges[1]), (1, edges[0])):
-    rows = np.flatnonzero(sim.ps.gid[: sim.clock.n_move[0]] == gid)
-    if rows.size:
-        sim.ps.x[rows[0]] = (r_mid * np.cos(angle), r_mid * np.sin(angle))
-        sim.ps.v[rows[0]] = 0.0
-sim.refresh()  # collective: migrates the moved particles to their owners, new ghosts, forces
+# collective: migrates the moved particles to their owners, new ghosts, forces
+on_edges = [(r_mid * np.cos(a), r_mid * np.sin(a)) for a in (edges[1], edges[0])]
+sim.set_particles([0, 1], position=on_edges, velocity=np.zeros((2, 2)))
 owners = comm.allreduce(int(np.any(sim.ps.gid[: sim.clock.n_move[0]] == 0)))
 owned = comm.allreduce(int(sim.clock.n_move[0]))
 sim.advance_steps(steps)

@@ -1,10 +1,13 @@
-"""One sample's input to the ring sums: this rank's owned free particles and their contacts,
-each contact seen from the particle (normal towards it, force on it, tangential displacement in
-its orientation).
+"""One sample's input to the ring sums: free particles and their contacts, each contact seen
+from the particle (normal towards it, force on it, tangential displacement in its
+orientation), from a running Simulation (this rank's owned particles, ``sample_simulation``)
+or from a snapshot (the whole cell, ``snapshot_sample``): the same rows either way, so in-situ
+and offline averages agree to round-off.
 
 Stage: averaging. Disk-disk contacts count for each free partner; contacts with wall disks and
 with the flat ring surfaces count for the free particle only (SPEC §4). Per particle, contacts
 keep the pair list's canonical order, so a particle's sum is the same on any number of ranks.
+Forces are the ones the step applied (Simulation.local_view; the snapshots store the same).
 """
 
 from __future__ import annotations
@@ -13,9 +16,10 @@ from typing import NamedTuple
 
 import numpy as np
 
+from pardem.scene import SceneError
 from pardem.state import INNER_WALL
 
-from .boundary import torque_on
+from .boundary import inner_ring_torque, torque_on
 
 
 class Sample(NamedTuple):
@@ -37,6 +41,16 @@ class Sample(NamedTuple):
     force: np.ndarray
     tangential: np.ndarray
     inner_torque: float
+
+    @property
+    def particles(self) -> tuple:
+        """(x, v, omega, radius, mass): sums.accumulate's particle argument."""
+        return self.x, self.v, self.omega, self.radius, self.mass
+
+    @property
+    def contacts(self) -> tuple:
+        """(start, normal, overlap, force, tangential): sums.accumulate's contact argument."""
+        return self.start, self.normal, self.overlap, self.force, self.tangential
 
 
 def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, tangential,
@@ -113,3 +127,27 @@ def _inner_torque(rows: dict, t: dict, i, j, n_move: int, ring: dict | None) -> 
         torque += torque_on(rows["x"][p], rows["radius"][p], ring["normal"][sel],
                             ring["overlap"][sel], f)
     return torque
+
+
+def snapshot_sample(snap: dict, displacement: str = "eta") -> Sample:
+    """The free particles of a snapshot (rows sorted by id, so a free particle's row is its id)
+    and their contacts, oriented towards each free partner; ``displacement``: "eta" or "spring"
+    for the tangential part of Delta (``oriented_rows``)."""
+    if "contacts" not in snap:
+        raise SceneError(f"snapshot at t = {snap['time']} s has no contacts: offline averaging "
+                         "needs [output] contacts = true")
+    free = snap["kind"] == 0
+    n = int(free.sum())
+    c = snap["contacts"]
+    lo, hi = c["ids"][:, 0], c["ids"][:, 1]
+    ring = snap.get("ring_contacts")
+    # lo is always free; free ids are 0..n-1, wall disks come after
+    try:
+        owner, normal, overlap, force, tangential = oriented_rows(
+            lo, hi, np.ones(lo.size, bool), hi < n, c, None if ring is None else ring["id"],
+            ring, displacement)
+    except ValueError as e:
+        raise SceneError(f"snapshot at t = {snap['time']} s: {e}") from None
+    return from_contacts(snap["position"][:n], snap["velocity"][:n], snap["omega"][:n],
+                         snap["radius"][:n], snap["mass"][:n], owner, normal, overlap, force,
+                         tangential, inner_ring_torque(snap, c, ring))

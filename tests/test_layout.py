@@ -1,0 +1,73 @@
+"""The shape the code keeps (docs: the structure of pardem): small modules, jitted functions
+without long positional argument lists, MPI reached only from pardem/parallel/, and a serial run
+that never loads MPI."""
+
+import ast
+import subprocess
+import sys
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+SOURCES = sorted(p for package in ("pardem", "averaging") for p in (ROOT / package).rglob("*.py"))
+MAX_LINES = 400
+MAX_ARGS = 12
+
+
+def _jitted(node: ast.FunctionDef) -> bool:
+    for d in node.decorator_list:
+        target = d.func if isinstance(d, ast.Call) else d
+        name = ast.unparse(target)
+        if name.split(".")[-1] in ("njit", "jit", "overload", "intrinsic"):
+            return True
+    return False
+
+
+def test_modules_are_small():
+    long = {str(p.relative_to(ROOT)): n for p in SOURCES
+            if (n := len(p.read_text().splitlines())) > MAX_LINES}
+    assert not long, f"modules over {MAX_LINES} lines: {long}"
+
+
+def test_no_jitted_function_takes_more_than_twelve_positional_arguments():
+    found = []
+    for path in SOURCES:
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, ast.FunctionDef) and _jitted(node):
+                n = len(node.args.posonlyargs) + len(node.args.args)
+                if n > MAX_ARGS:
+                    found.append(f"{path.relative_to(ROOT)}:{node.name} ({n})")
+    assert not found, found
+
+
+def test_mpi_is_imported_only_under_pardem_parallel():
+    parallel = ROOT / "pardem" / "parallel"
+    found = []
+    for path in SOURCES:
+        if parallel in path.parents:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            if any(n.split(".")[0] == "mpi4py" or n.endswith("parallel.native")
+                   or n.endswith("parallel.halo") or n.endswith("parallel.comm") for n in names):
+                found.append(str(path.relative_to(ROOT)))
+    assert not found, f"MPI reached outside pardem/parallel: {found}"
+
+
+def test_a_serial_run_loads_no_mpi(tmp_path):
+    """A free scene run on one process, with output: neither mpi4py nor libmpi is loaded."""
+    code = """
+import sys
+from pathlib import Path
+sys.path.insert(0, "tests")
+from helpers import dense_packing, free_scene
+from pardem.simulation import Simulation
+sim = Simulation(free_scene(dense_packing(4, 4)), out_dir=Path(sys.argv[1]))
+sim.run(end=0.01, progress=False)
+maps = Path("/proc/self/maps").read_text()
+print("mpi4py" in sys.modules, "libmpi" in maps)
+"""
+    done = subprocess.run([sys.executable, "-c", code, str(tmp_path)], cwd=ROOT,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["False", "False"]
