@@ -100,23 +100,23 @@ def oriented_rows(i, j, as_i, as_j, pairs: dict, ring_owner=None, ring: dict | N
 def sample_simulation(sim) -> Sample:
     """This rank's sample of a running Simulation: its owned particles and every touching
     contact with an owned partner, with the forces the last step applied."""
-    rows, n_move, tables = sim.local_view()
+    rows, n_owned, tables = sim.local_view()
     t, ring = tables.pairs, tables.rings
     i, j = t["index"][:, 0], t["index"][:, 1]
     cfg = sim.scene.averaging
     owner, normal, overlap, force, tangential = oriented_rows(
-        i, j, i < n_move, j < n_move, t, None if ring is None else ring["index"], ring,
+        i, j, i < n_owned, j < n_owned, t, None if ring is None else ring["index"], ring,
         cfg.displacement if cfg is not None else "eta")
-    sl = slice(0, n_move)
+    sl = slice(0, n_owned)
     return from_contacts(rows["x"][sl], rows["v"][sl], rows["omega"][sl], rows["radius"][sl],
                          rows["mass"][sl], owner, normal, overlap, force, tangential,
-                         _inner_torque(rows, t, i, j, n_move, ring))
+                         _inner_torque(rows, t, i, j, n_owned, ring))
 
 
-def _inner_torque(rows: dict, t: dict, i, j, n_move: int, ring: dict | None) -> float:
+def _inner_torque(rows: dict, t: dict, i, j, n_owned: int, ring: dict | None) -> float:
     """Torque of the inner ring on this rank's particles: their contacts with inner wall disks
     (a wall disk is always the higher-gid partner j) and with the flat inner surface."""
-    on = (i < n_move) & (rows["kind"][j] == INNER_WALL)
+    on = (i < n_owned) & (rows["kind"][j] == INNER_WALL)
     f = t["normal_force"][on, None] * t["normal"][on] + t["tangential_force"][on]
     p = i[on]
     torque = torque_on(rows["x"][p], rows["radius"][p], t["normal"][on], t["overlap"][on], f)

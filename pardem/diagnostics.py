@@ -31,10 +31,10 @@ def pair_overlap(ps, i, j):
 
 
 @nb.njit(**JIT)
-def kinetic_energy(ps, n_move):
+def kinetic_energy(ps, n_owned):
     """Translational + rotational kinetic energy (J) of the moving particles."""
     e = 0.0
-    for i in range(n_move):
+    for i in range(n_owned):
         m = ps.mass[i]
         e += 0.5 * m * (ps.v[i, 0] ** 2 + ps.v[i, 1] ** 2)
         e += 0.0625 * m * (2.0 * ps.radius[i]) ** 2 * ps.omega[i] ** 2  # I = m d^2/8

@@ -18,7 +18,7 @@ from .walls import outer_radius, outer_ring_settled, place_wall_disks
 
 
 @nb.njit(**INLINE)
-def kick(ps, n_move, h, prm, opts, closing):
+def kick(ps, n_owned, h, prm, opts, closing):
     """Half kick of the moving particles. The closing kick of a step then applies bottom friction
     as a velocity-space Coulomb friction: it removes mu_b g dt of speed and never reverses the
     velocity, so a disk at rest stays at rest and nothing divides by zero.
@@ -28,7 +28,7 @@ def kick(ps, n_move, h, prm, opts, closing):
     roots and divisions, 4x faster, same bits). Selects instead of branches for the same reason."""
     dv = prm.mu_b_g * 2.0 * h
     v, f, inv_m = ps.v.reshape(-1), ps.f.reshape(-1), ps.inv_mass
-    for i in range(n_move):
+    for i in range(n_owned):
         vx = v[2 * i] + h * f[2 * i] * inv_m[i]
         vy = v[2 * i + 1] + h * f[2 * i + 1] * inv_m[i]
         if opts.bottom_friction and closing:
@@ -40,7 +40,7 @@ def kick(ps, n_move, h, prm, opts, closing):
         v[2 * i] = vx
         v[2 * i + 1] = vy
     if opts.rotation:
-        for i in range(n_move):
+        for i in range(n_owned):
             ps.omega[i] += h * ps.tau[i] * ps.inv_inertia[i]
 
 
@@ -49,10 +49,10 @@ def drift(ps, clock, prm, opts, scratch):
     """Move free bodies and walls to t + dt. Returns ``(bad, disp, v2)``: the index of a
     particle that became non-finite or left the cell (-1: none), the largest displacement since
     the neighbour build plus the ring's, and the largest squared speed (m^2/s^2). ``scratch``:
-    a (2, n_move) work array."""
+    a (2, n_owned) work array."""
     dt = prm.dt
     h = 0.5 * dt
-    n_move = clock.n_move[0]
+    n_owned = clock.n_owned[0]
     # a centre beyond a ring line overlaps that ring by more than a radius: it has left the cell
     # (free scenes: escape_radius = inf, nothing to leave)
     if opts.walls:
@@ -68,7 +68,7 @@ def drift(ps, clock, prm, opts, scratch):
     inv_m = ps.inv_mass
     v2, d2 = scratch[0], scratch[1]
     n_bad = 0
-    for i in range(n_move):
+    for i in range(n_owned):
         x0 = x[2 * i] + dt * v[2 * i]
         x1 = x[2 * i + 1] + dt * v[2 * i + 1]
         x[2 * i] = x0
@@ -90,16 +90,16 @@ def drift(ps, clock, prm, opts, scratch):
     max_d2 = 0.0
     max_v2 = 0.0
     bad = -1
-    for i in range(n_move):
+    for i in range(n_owned):
         max_v2 = max(max_v2, v2[i])
         max_d2 = max(max_d2, d2[i])
     if n_bad > 0:  # rare: report the last bad index
-        for i in range(n_move):
+        for i in range(n_owned):
             r2 = x[2 * i] * x[2 * i] + x[2 * i + 1] * x[2 * i + 1]
             if not (lo2 <= r2 <= hi2):
                 bad = i
     if opts.rotation:
-        for i in range(n_move):
+        for i in range(n_owned):
             ps.theta[i] += dt * ps.omega[i]
             ps.w_pred[i] = ps.omega[i] + (h * ps.tau[i] * ps.inv_inertia[i] if opts.predict
                                           else 0.0)
@@ -109,8 +109,8 @@ def drift(ps, clock, prm, opts, scratch):
     if opts.walls:
         t = clock.step[0] * dt
         settled = outer_ring_settled(t, dt, prm.rings)
-        place_wall_disks(ps, n_move, clock.n_moved[0], t, prm.rings, settled)
-        for i in range(n_move, clock.n_moved[0]):
+        place_wall_disks(ps, n_owned, clock.n_moving[0], t, prm.rings, settled)
+        for i in range(n_owned, clock.n_moving[0]):
             # settled outer disks: at rest at their final radius; whatever they moved since the
             # last build is in ring_move below
             if settled and ps.kind[i] == OUTER_WALL:

@@ -154,12 +154,12 @@ def gid_order(gid, n):
 
 
 @nb.njit(**JIT)
-def ring_candidates(x, radius, n_move, r_o, skin, rings, out):
+def ring_candidates(x, radius, n_owned, r_o, skin, rings, out):
     """Indices of free particles within skin of a flat ring surface that is a contact surface
     (outer radius r_o now); returns the count (which may exceed out.size, in which case the
     caller grows ``out`` and calls again)."""
     count = 0
-    for i in range(n_move):
+    for i in range(n_owned):
         ring = ring_surface(x[i, 0], x[i, 1], radius[i], skin, r_o, 0.0, rings)[0]
         if ring != 0:
             if count < out.size:
@@ -180,14 +180,14 @@ def build_lists(ps, pairs, clock, prm, t, from_list, history, walls):
     if from_list:
         history = live_history(ps.gid, pairs.i, pairs.j, pairs.hist, pairs.count[0])
     n = clock.n_local[0] + clock.n_ghost[0]
-    n_move = clock.n_move[0]
+    n_owned = clock.n_owned[0]
     ps.x_ref[:n] = ps.x[:n]
     r_out = outer_radius(t, prm.rings)[0]
     clock.r_out_ref[0] = r_out
-    count = build_pairs(ps.x, ps.radius, ps.gid, n_move, n, prm.skin, pairs.i, pairs.j)
+    count = build_pairs(ps.x, ps.radius, ps.gid, n_owned, n, prm.skin, pairs.i, pairs.j)
     n_wall = 0
     if walls:
-        n_wall = ring_candidates(ps.x, ps.radius, n_move, r_out, prm.skin, prm.rings, pairs.wall)
+        n_wall = ring_candidates(ps.x, ps.radius, n_owned, r_out, prm.skin, prm.rings, pairs.wall)
     if count <= pairs.i.size and n_wall <= pairs.wall.size:
         if pairs.hist.shape[0] > 0:
             carry_history(history[0], history[1], history[2], ps.gid, pairs.i, pairs.j,

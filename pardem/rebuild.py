@@ -41,12 +41,12 @@ def migrate(sim, history, rebalance: bool):
     Returns the history with the migrants' merged in, and (pair count, ring candidate
     count) of the lists, or (-1, -1) if they were not built."""
     clock, ps, hist = sim.clock, sim.ps, sim.hist
-    n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
-    idle = n_local - int(clock.n_moved[0])  # wall disks not moved since the last build
+    n_owned, n_local = int(clock.n_owned[0]), int(clock.n_local[0])
+    idle = n_local - int(clock.n_moving[0])  # wall disks not moved since the last build
     if rebalance:
-        sim.decomp.rebalance(ps.x[:n_move])
+        sim.decomp.rebalance(ps.x[:n_owned])
     written, moved, own, walls, ghosts, lists, history = sim.decomp.distribute(
-        ps, sim.pairs, clock, (n_move, n_local, idle), hist, sim.options.walls, history,
+        ps, sim.pairs, clock, (n_owned, n_local, idle), hist, sim.options.walls, history,
         sim.time, sim.prm, sim.wall_margin)
     if not written:  # ps too small: store the rows in larger arrays
         rows = np.concatenate([own, walls, ghosts] if moved else
@@ -59,23 +59,23 @@ def migrate(sim, history, rebalance: bool):
 
 def order_walls(sim, idle: int) -> None:
     """Store the wall disks near this rank's sector first and let the step loop move only
-    those (clock.n_moved): within the ghost width plus a wall diameter of the sector, no
+    those (clock.n_moving): within the ghost width plus a wall diameter of the sector, no
     owned particle can touch another wall disk before the next exchange. ``idle``: how
     many wall disks, stored last, the step loop did not move (placed here first)."""
     from .parallel.exchange import ExchangePlan, arrange_walls
 
     clock = sim.clock
-    n_move, n_local = int(clock.n_move[0]), int(clock.n_local[0])
+    n_owned, n_local = int(clock.n_owned[0]), int(clock.n_local[0])
     plan = ExchangePlan(sim.decomp.sectors.edges, sim.decomp.rank, 0.0,
                         sim.wall_margin, row_width(sim.hist), 0, False, False)
-    n_near = arrange_walls(sim.ps, n_move, n_local - idle, n_local, sim.time, sim.prm, plan)
-    clock.n_moved[0] = n_move + n_near
+    n_near = arrange_walls(sim.ps, n_owned, n_local - idle, n_local, sim.time, sim.prm, plan)
+    clock.n_moving[0] = n_owned + n_near
 
 
 def place_idle_walls(sim) -> None:
-    """Bring the wall disks the step loop does not move (clock.n_moved onwards) to the
+    """Bring the wall disks the step loop does not move (clock.n_moving onwards) to the
     current time whenever control returns to Python, so that output sees every wall disk
     where it is."""
-    first, last = int(sim.clock.n_moved[0]), int(sim.clock.n_local[0])
+    first, last = int(sim.clock.n_moving[0]), int(sim.clock.n_local[0])
     if last > first:
         place_wall_disks(sim.ps, first, last, sim.time, sim.prm.rings, False)

@@ -110,9 +110,9 @@ class Simulation(StateViews):
         rows = packed(ps, np.concatenate([mine, np.arange(init.n_free, n)]), self.hist)
         self.ps = new_particles(rows.shape[0], self.hist)
         unpack_particles(rows, self.ps, 0)
-        self.clock.n_move[0] = mine.size
+        self.clock.n_owned[0] = mine.size
         self.clock.n_local[0] = rows.shape[0]
-        self.clock.n_moved[0] = rows.shape[0]  # every wall disk is at time t: none idle yet
+        self.clock.n_moving[0] = rows.shape[0]  # every wall disk is at time t: none idle yet
         # rebuild.order_walls: no owned particle gets this close to an idle wall disk between
         # exchanges
         self.wall_margin = self.decomp.ghost_width + 2.0 * float(
@@ -152,7 +152,7 @@ class Simulation(StateViews):
         """This rank's counts: owned particles, ghosts, listed pairs, neighbour ranks, ghosts
         sent per step, whether the refresh needs an Allreduce, seconds spent waiting."""
         h = self.decomp.halo
-        return {"owned": int(self.clock.n_move[0]), "ghosts": int(self.clock.n_ghost[0]),
+        return {"owned": int(self.clock.n_owned[0]), "ghosts": int(self.clock.n_ghost[0]),
                 "pairs": int(self.pairs.count[0]), "neighbours": 0 if h is None else
                 int(h.nbr.size), "sent": 0 if h is None else int(h.send_idx.size),
                 "allreduce": bool(h is not None and h.cfg.allreduce),
@@ -164,10 +164,10 @@ class Simulation(StateViews):
         positions [k,2] (m), velocities [k,2] (m/s) and/or spins [k] (rad/s), then rebuild the
         lists and recompute the forces (springs of pairs that still touch are kept)."""
         ids = np.atleast_1d(np.asarray(ids, np.int64))
-        n_move = int(self.clock.n_move[0])
-        rows = np.searchsorted(self.ps.gid[:n_move], ids)
-        rows = np.minimum(rows, max(n_move - 1, 0))
-        here = (self.ps.gid[rows] == ids) if n_move else np.zeros(ids.size, bool)
+        n_owned = int(self.clock.n_owned[0])
+        rows = np.searchsorted(self.ps.gid[:n_owned], ids)
+        rows = np.minimum(rows, max(n_owned - 1, 0))
+        here = (self.ps.gid[rows] == ids) if n_owned else np.zeros(ids.size, bool)
         for array, values in ((self.ps.x, position), (self.ps.v, velocity),
                               (self.ps.omega, omega)):
             if values is not None:

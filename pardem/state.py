@@ -115,8 +115,8 @@ class Params(NamedTuple):
 class Clock(NamedTuple):
     """Integer clock. step[0]: steps taken (time = step * dt, never accumulated, so that restarts
     and ranks agree bit for bit). phase[0]: 0 = step complete, 1 = drifted but forces pending.
-    n_move[0]: particles integrated (the leading block: free particles this rank owns).
-    n_local[0]: owned particles + wall disks. n_moved[0] <= n_local[0]: owned particles + the
+    n_owned[0]: particles integrated (the leading block: free particles this rank owns).
+    n_local[0]: owned particles + wall disks. n_moving[0] <= n_local[0]: owned particles + the
     wall disks near this rank's sector, stored first: the bodies the step loop moves (the
     other wall disks are placed at exchanges and before output; one rank: all).
     n_ghost[0]: ghost copies of other ranks' particles, stored after them (0 on one rank).
@@ -130,9 +130,9 @@ class Clock(NamedTuple):
 
     step: np.ndarray
     phase: np.ndarray
-    n_move: np.ndarray
+    n_owned: np.ndarray
     n_local: np.ndarray
-    n_moved: np.ndarray
+    n_moving: np.ndarray
     n_ghost: np.ndarray
     r_out_ref: np.ndarray
     reach: np.ndarray
@@ -161,11 +161,11 @@ def new_pairs(capacity: int, wall_capacity: int, hist: int) -> Pairs:
     )
 
 
-def new_clock(n_move: int, n_local: int, r_out0: float) -> Clock:
+def new_clock(n_owned: int, n_local: int, r_out0: float) -> Clock:
     return Clock(
         step=np.zeros(1, np.int64), phase=np.zeros(1, np.int64),
-        n_move=np.array([n_move], np.int64), n_local=np.array([n_local], np.int64),
-        n_moved=np.array([n_local], np.int64),
+        n_owned=np.array([n_owned], np.int64), n_local=np.array([n_local], np.int64),
+        n_moving=np.array([n_local], np.int64),
         n_ghost=np.zeros(1, np.int64),
         r_out_ref=np.array([r_out0]), reach=np.zeros(1), disp=np.zeros(1),
     )

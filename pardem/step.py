@@ -74,13 +74,13 @@ def make_stepper(opts: StepOptions) -> Stepper:
     @nb.njit(**JIT)
     def advance(ps, pairs, clock, prm, halo, target):
         h = 0.5 * prm.dt
-        n_move = clock.n_move[0]
+        n_owned = clock.n_owned[0]
         n_all = clock.n_local[0] + clock.n_ghost[0]
-        scratch = np.empty((2, n_move))
+        scratch = np.empty((2, n_owned))
         work = np.zeros(work_size(o))
         while clock.step[0] < target or clock.phase[0] == 1:
             if clock.phase[0] == 0:
-                kick(ps, n_move, h, prm, opts, False)
+                kick(ps, n_owned, h, prm, opts, False)
                 bad, disp, v2 = drift(ps, clock, prm, opts, scratch)
                 # ghosts to t + dt; every rank learns the global maxima (one rank: no-op)
                 err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0], bad >= 0,
@@ -97,7 +97,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
                     return NEED_REBUILD, -1
             contact_forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], o,
                            opts.rotation, opts.walls, work)
-            kick(ps, n_move, h, prm, opts, True)
+            kick(ps, n_owned, h, prm, opts, True)
             clock.phase[0] = 0
         return OK, -1
 

@@ -29,12 +29,12 @@ class StateViews:
 
     def kinetic_energy(self) -> float:
         """Translational + rotational kinetic energy (J) of the free particles."""
-        return float(self.decomp.sum(diag.kinetic_energy(self.ps, int(self.clock.n_move[0]))))
+        return float(self.decomp.sum(diag.kinetic_energy(self.ps, int(self.clock.n_owned[0]))))
 
     def total_energy(self) -> float:
         """Kinetic + elastic energy (J): every spring of disk-disk and disk-ring contacts."""
-        n_move = int(self.clock.n_move[0])
-        e = diag.elastic_energy_pairs(self.ps, self.pairs, self.prm, self.contact, n_move)
+        n_owned = int(self.clock.n_owned[0])
+        e = diag.elastic_energy_pairs(self.ps, self.pairs, self.prm, self.contact, n_owned)
         if self.options.walls:
             e += diag.elastic_energy_rings(self.ps, self.pairs, self.prm, self.contact,
                                            outer_radius(self.time, self.prm.rings)[0])
@@ -50,7 +50,7 @@ class StateViews:
         """This rank's touching pairs whose lower-gid partner is among its first ``n_own`` rows
         (default: its owned particles, so each pair is reported once over the ranks; all local
         rows: every pair with an owned partner), with storage indices, and its ring contacts."""
-        n_own = int(self.clock.n_move[0]) if n_own is None else n_own
+        n_own = int(self.clock.n_owned[0]) if n_own is None else n_own
         pairs = diag.contact_table(self.ps, self.pairs, self.prm, self.contact, n_own,
                                    local_index=True)
         rings = None
@@ -66,7 +66,7 @@ class StateViews:
         ps, n = self.ps, int(self.clock.n_local[0] + self.clock.n_ghost[0])
         rows = {"gid": ps.gid[:n], "kind": ps.kind[:n], "x": ps.x[:n], "v": ps.v[:n],
                 "omega": ps.omega[:n], "radius": ps.radius[:n], "mass": ps.mass[:n]}
-        return rows, int(self.clock.n_move[0]), self.local_tables(n)
+        return rows, int(self.clock.n_owned[0]), self.local_tables(n)
 
     def contacts(self) -> dict[str, np.ndarray] | None:
         """Touching pairs of the whole cell sorted by (gid_lo, gid_hi) (diagnostics.contact_table
@@ -94,14 +94,14 @@ class StateViews:
         all) and ``rank`` (the owning rank, -1 for wall disks). Wall disks report zero force
         and torque: they are prescribed, and each rank adds only its own particles' contacts
         to them, so their loads are not a state."""
-        ps, n_move = self.ps, int(self.clock.n_move[0])
-        rows = slice(0, int(self.clock.n_local[0]) if self.decomp.rank == 0 else n_move)
+        ps, n_owned = self.ps, int(self.clock.n_owned[0])
+        rows = slice(0, int(self.clock.n_local[0]) if self.decomp.rank == 0 else n_owned)
         keys = keys or (*self.PARTICLE_ARRAYS, "rank")
         mine = {"id": ps.gid[rows], "kind": ps.kind[rows]}
         mine.update({k: getattr(ps, self.PARTICLE_ARRAYS[k])[rows] for k in keys if k != "rank"})
         if "rank" in keys:
             mine["rank"] = np.full(mine["id"].size, self.decomp.rank, np.int32)
-            mine["rank"][n_move:] = -1
+            mine["rank"][n_owned:] = -1
         out = self.decomp.gather_rows(mine, key="id")
         if out is not None:
             walls = out["kind"] != 0

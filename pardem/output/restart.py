@@ -23,11 +23,11 @@ def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
     arrays sorted by gid, ``pair_lo``/``pair_hi``/``pair_hist`` (the non-zero history rows,
     sorted by key), ``force_lo``/``force_hi``/``pair_force`` (fn, ftx, fty of every touching
     pair) and ``ring_force`` [n,3] (of each particle's ring contact), and the attributes."""
-    ps, n_move, d = sim.ps, int(sim.clock.n_move[0]), sim.decomp
-    rows = slice(0, int(sim.clock.n_local[0]) if d.rank == 0 else n_move)
+    ps, n_owned, d = sim.ps, int(sim.clock.n_owned[0]), sim.decomp
+    rows = slice(0, int(sim.clock.n_local[0]) if d.rank == 0 else n_owned)
     mine = {k: getattr(ps, k)[rows] for k in ARRAYS if k != "hist_wall" or sim.hist}
     ring = np.zeros((ps.gid.size, 3))
-    tables = sim.local_tables(n_move)
+    tables = sim.local_tables(n_owned)
     t_ring = tables.rings
     if t_ring is not None:
         ring[t_ring["index"], 0] = t_ring["normal_force"]

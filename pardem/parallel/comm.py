@@ -156,7 +156,7 @@ class Decomposition:
                    wall_margin: float):
         """Migrate owned particles that left the sector, with their contact history, and
         exchange ghosts, in one round (``exchange.exchange_rows``; it sets the counts in
-        clock); sets ``self.halo`` for the ghosts' per-step refresh. ``counts``: (n_move,
+        clock); sets ``self.halo`` for the ghosts' per-step refresh. ``counts``: (n_owned,
         n_local, idle) as in exchange_rows. History: ``history`` if given (a restart), else the
         non-zero rows of ``pairs`` (``hist`` columns, 0: none). If ps is large enough, the new
         rows are stored in it, the idle wall disks placed at time t (s), the wall disks within

@@ -64,7 +64,7 @@ def _destination(gid, mig_gid, mig_dest):
 @nb.njit(**JIT)
 def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, handles):
     """The whole exchange (collective): ``send_rows``, ``receive_rows``, with a shared-memory
-    refresh ``halo.peer_offsets``, and the new counts in clock. ``counts``: (n_move, n_local,
+    refresh ``halo.peer_offsets``, and the new counts in clock. ``counts``: (n_owned, n_local,
     idle) before it (owned rows, owned rows + wall disks, wall disks not moved since the last
     exchange). ``history``: (lo, hi, rows), used unless ``from_list`` (the springs of the current
     pair list). If the rows were written, also the lists (``neighbors.build_lists``, history
@@ -72,8 +72,8 @@ def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, ha
     call from Python costs tens of us to dispatch. Returns ``(mpi_error, received, peers,
     lists)``: received as from receive_rows, peers (peer_at, need) or empty, lists (pair count,
     ring candidate count) from build_lists, or (-1, -1) if not built."""
-    n_move = counts[0]
-    rbuf, recv_off, owner, history, err = send_rows(ps, pairs, n_move, plan, from_list, history,
+    n_owned = counts[0]
+    rbuf, recv_off, owner, history, err = send_rows(ps, pairs, n_owned, plan, from_list, history,
                                                     handles)
     received = receive_rows(ps, counts, owner, (rbuf, recv_off), plan, history, t, prm,
                             handles, err == 0)
@@ -82,20 +82,20 @@ def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, ha
     if plan.shared:
         peer_at, need, err2 = peer_offsets(buffers[0], buffers[1], buffers[2], handles)
         err |= err2
-    n_own = own.shape[0] if moved else n_move
-    clock.n_move[0] = n_own
-    clock.n_local[0] = n_own + counts[1] - n_move
+    n_own = own.shape[0] if moved else n_owned
+    clock.n_owned[0] = n_own
+    clock.n_local[0] = n_own + counts[1] - n_owned
     clock.n_ghost[0] = ghosts.shape[0]
     count, n_wall = -1, -1
     if written:
-        clock.n_moved[0] = n_own + n_near
+        clock.n_moving[0] = n_own + n_near
         count, n_wall, _ = build_lists(ps, pairs, clock, prm, t, False, springs, plan.ring_walls)
     return err, received, (peer_at, need), (count, n_wall)
 
 
 @nb.njit(**JIT)
-def send_rows(ps, pairs, n_move, plan, from_list, history, handles):
-    """Migrate and ghost the owned rows ps[:n_move]. History: the non-zero rows of the current
+def send_rows(ps, pairs, n_owned, plan, from_list, history, handles):
+    """Migrate and ghost the owned rows ps[:n_owned]. History: the non-zero rows of the current
     pair list if ``from_list``, else ``history`` (lo, hi, rows; a restart's). Returns
     ``(rbuf, recv_off, owner, history, mpi_error)``: the messages received, each owned row's
     new owner, and the history sent from."""
@@ -104,12 +104,12 @@ def send_rows(ps, pairs, n_move, plan, from_list, history, handles):
     lo, hi, xi = history
     if from_list:
         lo, hi, xi = live_history(ps.gid, pairs.i, pairs.j, pairs.hist, pairs.count[0])
-    owner = owners(ps.x[:n_move], edges, rank)
+    owner = owners(ps.x[:n_owned], edges, rank)
     e = edge_vectors(edges)
     # rows for each destination: its migrants and its ghosts owned by someone else
-    dest = np.zeros((size, n_move), np.bool_)
+    dest = np.zeros((size, n_owned), np.bool_)
     n_rows = np.zeros(size, np.int64)
-    for p in range(n_move):
+    for p in range(n_owned):
         px, py, o = ps.x[p, 0], ps.x[p, 1], owner[p]
         for r in range(size):
             if r != rank and (r == o or edge_distance(px, py, e, r) < ghost_width):
@@ -143,7 +143,7 @@ def send_rows(ps, pairs, n_move, plan, from_list, history, handles):
         b = send_off[r]
         sbuf[b] = n_rows[r]
         sbuf[b + 1] = n_springs[r]
-        idx = np.flatnonzero(dest[r, :n_move])
+        idx = np.flatnonzero(dest[r, :n_owned])
         rows = np.empty((idx.size, width))
         pack_particles(ps, idx, rows)
         at = b + 2
@@ -172,7 +172,7 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
     n_arrived, own, walls, ghosts, history, halo)``: halo the ``halo_buffers`` of the refresh
     plan. If not written, the caller stores own and walls (if moved; else they are empty and
     ps[:n_local] stays) and ghosts."""
-    n_move, n_local, idle = counts
+    n_owned, n_local, idle = counts
     rbuf, recv_off = received
     edges, rank, ghost_width, width = plan.edges, plan.rank, plan.ghost_width, plan.width
     lo, hi, xi = history
@@ -189,8 +189,8 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
                     n_gh += 1
             n_sp += int(rbuf[b + 1])
     kept = np.flatnonzero(owner == rank)
-    stay = np.zeros(n_move, np.bool_)  # migrants kept here as ghosts
-    for p in range(n_move):
+    stay = np.zeros(n_owned, np.bool_)  # migrants kept here as ghosts
+    for p in range(n_owned):
         near_here = edge_distance(ps.x[p, 0], ps.x[p, 1], e, rank) < ghost_width
         stay[p] = owner[p] != rank and near_here
     stay_idx = np.flatnonzero(stay)
@@ -223,7 +223,7 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
         key[n_gh + k] = (owner[stay_idx[k]] << SHIFT) | ps.gid[stay_idx[k]]
     ghosts = ghosts[np.argsort(key)]
 
-    moved = kept.size < n_move or n_arr > 0
+    moved = kept.size < n_owned or n_arr > 0
     own = np.empty((0, width))
     walls = np.empty((0, width))
     if moved:
@@ -231,16 +231,16 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
         pack_particles(ps, kept, own)
         own[kept.size:] = arrivals
         own = own[np.argsort(own[:, 0])]  # column 0: gid
-        walls = np.empty((n_local - n_move, width))
-        pack_particles(ps, np.arange(n_move, n_local), walls)
+        walls = np.empty((n_local - n_owned, width))
+        pack_particles(ps, np.arange(n_owned, n_local), walls)
     if n_sp:
         lo, hi, xi = merge_history(lo, hi, xi, springs)
 
-    n_own = own.shape[0] if moved else n_move
-    x_own = own[:, plan.x_col:plan.x_col + 2] if moved else ps.x[:n_move]
+    n_own = own.shape[0] if moved else n_owned
+    x_own = own[:, plan.x_col:plan.x_col + 2] if moved else ps.x[:n_owned]
     refresh = _refresh_plan(x_own, key, e, rank, ghost_width)
 
-    n_new = n_local - n_move + n_own
+    n_new = n_local - n_owned + n_own
     written = write and n_new + ghosts.shape[0] <= ps.gid.size
     n_near = 0
     if written:

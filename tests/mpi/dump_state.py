@@ -33,7 +33,7 @@ def check_lists(sim, comm) -> None:
     """Every rank's listed pairs (gids), joined, equal brute force over the bodies the ranks
     move (owned particles and the wall disks near each sector: together, every body)."""
     ps, c, pr = sim.ps, sim.clock, sim.pairs
-    moved = slice(0, int(c.n_moved[0]))
+    moved = slice(0, int(c.n_moving[0]))
     k = int(pr.count[0])
     mine = (ps.gid[moved], ps.x[moved], ps.radius[moved], ps.kind[moved],
             {(int(a), int(b)) for a, b in zip(ps.gid[pr.i[:k]], ps.gid[pr.j[:k]])})
@@ -88,7 +88,7 @@ def main():
     migrated = comm.allreduce(sim.decomp.n_migrated)
     # wall disks this rank does not move, and listed pairs that would need one of them
     c, pr = sim.clock, sim.pairs
-    idle = slice(int(c.n_moved[0]), int(c.n_local[0]))
+    idle = slice(int(c.n_moving[0]), int(c.n_local[0]))
     k = pr.count[0]
     in_idle = ((pr.i[:k] >= idle.start) & (pr.i[:k] < idle.stop)) | (
         (pr.j[:k] >= idle.start) & (pr.j[:k] < idle.stop))

@@ -30,8 +30,8 @@ sim = Simulation(scene, comm=comm)
 # collective: migrates the moved particles to their owners, new ghosts, forces
 on_edges = [(r_mid * np.cos(a), r_mid * np.sin(a)) for a in (edges[1], edges[0])]
 sim.set_particles([0, 1], position=on_edges, velocity=np.zeros((2, 2)))
-owners = comm.allreduce(int(np.any(sim.ps.gid[: sim.clock.n_move[0]] == 0)))
-owned = comm.allreduce(int(sim.clock.n_move[0]))
+owners = comm.allreduce(int(np.any(sim.ps.gid[: sim.clock.n_owned[0]] == 0)))
+owned = comm.allreduce(int(sim.clock.n_owned[0]))
 sim.advance_steps(steps)
 arrays, attrs = sim.checkpoint_state() or (None, None)
 if comm.rank == 0:

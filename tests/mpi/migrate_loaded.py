@@ -50,8 +50,8 @@ def main():
     sim = Simulation(load_scene(scene), comm=comm)
     sim.advance_steps(settle)
     e0, e1 = sim.decomp.sectors.edges[:2]  # rank 0 owns angles e0 <= phi < e1
-    n_move = int(sim.clock.n_move[0])
-    ang = np.mod(np.arctan2(sim.ps.x[:n_move, 1], sim.ps.x[:n_move, 0]) - e0, 2 * np.pi)
+    n_owned = int(sim.clock.n_owned[0])
+    ang = np.mod(np.arctan2(sim.ps.x[:n_owned, 1], sim.ps.x[:n_owned, 0]) - e0, 2 * np.pi)
     best = (np.inf, -1)
     if comm.rank == 0:
         for k in np.argsort(np.abs(ang - (e1 - e0))):
@@ -70,7 +70,7 @@ def main():
     sim.decomp.sectors = sim.decomp.sectors._replace(edges=edges)
     migrated0 = sim.decomp.n_migrated
     sim._rebuild()
-    owned = set(sim.ps.gid[: int(sim.clock.n_move[0])].tolist())
+    owned = set(sim.ps.gid[: int(sim.clock.n_owned[0])].tolist())
     arrived = comm.allgather(gid in owned)
     assert arrived == [False, True], arrived
     assert comm.allreduce(sim.decomp.n_migrated - migrated0) >= 1

@@ -15,7 +15,7 @@ original = Simulation.write_checkpoint
 
 def write_checkpoint(self, *args, **kwargs):
     original(self, *args, **kwargs)
-    if MPI.COMM_WORLD.rank == 1 and self.clock.n_move[0] > 0:
+    if MPI.COMM_WORLD.rank == 1 and self.clock.n_owned[0] > 0:
         self.ps.v[0, 0] = np.nan
 
 
