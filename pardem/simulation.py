@@ -183,7 +183,8 @@ class Simulation(StateViews):
     def _compute_forces(self) -> None:
         n = int(self.clock.n_local[0])
         v2 = float((self.ps.v[:n] ** 2).sum(axis=1).max()) if n else 0.0
-        self.stepper.compute_forces(self.ps, self.pairs, self.clock, self.prm, self.decomp.max(v2))
+        self.stepper.compute_forces(self.ps, self.pairs, self.clock, self.prm, self.decomp.halo,
+                                    self.decomp.max(v2))
 
     def _put_recorded_forces(self, lo, hi, pair_force, ring_force) -> None:
         """A checkpoint's applied forces into the new lists (output right after a restart)."""

@@ -114,7 +114,7 @@ class Params(NamedTuple):
 
 class Clock(NamedTuple):
     """Integer clock. step[0]: steps taken (time = step * dt, never accumulated, so that restarts
-    and ranks agree bit for bit). phase[0]: 0 = step complete, 1 = drifted but forces pending.
+    and ranks agree bit for bit). phase[0]: 0 = step complete, 1 = drifted but forces pending, 2 = forces only (step.FORCES_ONLY).
     n_owned[0]: particles integrated (the leading block: free particles this rank owns).
     n_local[0]: owned particles + wall disks. n_moving[0] <= n_local[0]: owned particles + the
     wall disks near this rank's sector, stored first: the bodies the step loop moves (the

@@ -42,6 +42,7 @@ from .jit import JIT
 from .parallel.refresh import refresh_ghosts
 
 OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED = 0, 1, 2, 3
+FORCES_ONLY = 2  # Clock.phase: the next advance call only computes the forces
 
 
 class StepOptions(NamedTuple):
@@ -58,7 +59,7 @@ class StepOptions(NamedTuple):
 
 class Stepper(NamedTuple):
     """Compiled functions of one scene: ``advance(ps, pairs, clock, prm, halo, target_step) ->
-    (status, particle_index)`` and ``compute_forces(ps, pairs, clock, prm, v2_max)``."""
+    (status, particle_index)`` and ``compute_forces(ps, pairs, clock, prm, halo, v2_max)``."""
 
     advance: Callable
     compute_forces: Callable
@@ -78,7 +79,11 @@ def make_stepper(opts: StepOptions) -> Stepper:
         n_all = clock.n_local[0] + clock.n_ghost[0]
         scratch = np.empty((2, n_owned))
         work = np.zeros(work_size(o))
-        while clock.step[0] < target or clock.phase[0] == 1:
+        forces_only = clock.phase[0] == FORCES_ONLY
+        if forces_only:  # synchronous velocities
+            ps.v_pred[:n_all] = ps.v[:n_all]
+            ps.w_pred[:n_all] = ps.omega[:n_all]
+        while forces_only or clock.step[0] < target or clock.phase[0] == 1:
             if clock.phase[0] == 0:
                 kick(ps, n_owned, h, prm, opts, False)
                 bad, disp, v2 = drift(ps, clock, prm, opts, scratch)
@@ -97,19 +102,19 @@ def make_stepper(opts: StepOptions) -> Stepper:
                     return NEED_REBUILD, -1
             contact_forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], o,
                            opts.rotation, opts.walls, work)
+            if forces_only:
+                # one call site of the force loop: each inlined copy costs ~40 s of compiling
+                clock.phase[0] = 0
+                return OK, -1
             kick(ps, n_owned, h, prm, opts, True)
             clock.phase[0] = 0
         return OK, -1
 
-    @nb.njit(**JIT)
-    def compute_forces(ps, pairs, clock, prm, v2):
+    def compute_forces(ps, pairs, clock, prm, halo, v2):
         """Forces of the current state with synchronous velocities (start of a run); v2 is the
         largest squared speed over all ranks (m^2/s^2). Ghost velocities must be current."""
-        n = clock.n_local[0] + clock.n_ghost[0]
-        ps.v_pred[:n] = ps.v[:n]
-        ps.w_pred[:n] = ps.omega[:n]
         clock.reach[0] = math.sqrt(v2) * prm.dt
-        contact_forces(ps, pairs, n, prm, clock.step[0] * prm.dt, clock.reach[0], o,
-                       opts.rotation, opts.walls, np.zeros(work_size(o)))
+        clock.phase[0] = FORCES_ONLY
+        advance(ps, pairs, clock, prm, halo, clock.step[0])
 
     return Stepper(advance=advance, compute_forces=compute_forces)

@@ -94,7 +94,7 @@ def kernel_times(state, calls: int, repeats: int) -> dict[str, dict[str, list[fl
         t0 = time.perf_counter()
         for _ in range(calls):
             sim.pairs.hist[:] = xi0
-            sim.stepper.compute_forces(sim.ps, sim.pairs, sim.clock, sim.prm, 0.01)
+            sim.stepper.compute_forces(sim.ps, sim.pairs, sim.clock, sim.prm, sim.decomp.halo, 0.01)
         return (time.perf_counter() - t0) / calls
 
     sims = {label: start(variant, state) for label, variant in VARIANTS.items()}
