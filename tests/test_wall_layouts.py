@@ -29,12 +29,17 @@ SMALL_LAYOUTS = {
 }
 
 
-def test_the_shipped_layout_is_7mm_on_both_rings():
-    g = load_scene(ROOT / "run_scripts" / "couette_B.toml").geometry
-    inner, outer = wall_layout(g, "inner"), wall_layout(g, "outer")
-    # 2 pi R / 7 mm, rounded: 92.9 -> 93 and 226.6 -> 227 (independent of the code)
-    assert (inner.count, outer.count) == (93, 227)
-    assert inner.diameter == outer.diameter == 2.5e-3 and inner.flat and outer.flat
+def test_the_shipped_scenes_carry_the_layout_the_study_picked():
+    """docs/roughness.md picks `split` by its rule: 160 + 159 disks of 2.5 mm, flat surfaces
+    behind (the count checked against 2 pi R / spacing: 4.06 mm and 9.98 mm apart)."""
+    assert "**Picked: `split`**" in (ROOT / "docs" / "roughness.md").read_text()
+    for sim in ("A", "B", "C", "quick"):
+        g = load_scene(ROOT / "run_scripts" / f"couette_{sim}.toml").geometry
+        inner, outer = wall_layout(g, "inner"), wall_layout(g, "outer")
+        assert (inner.count, outer.count) == (160, 159), sim
+        assert round(2 * math.pi * g.inner_radius / 4.064e-3) == 160
+        assert round(2 * math.pi * g.outer_radius / 9.978e-3) == 159
+        assert inner.diameter == outer.diameter == 2.5e-3 and inner.flat and outer.flat
 
 
 def test_the_studys_layouts_have_the_papers_wall_fraction():
