@@ -4,9 +4,9 @@
 
 Each mutation edits one source file (the guard removed or weakened), runs the one test that
 must catch it, and restores the file, whatever happens. A mutation of compiled code gets a
-fresh numba cache by itself (pardem/jit.py keys the cache by the sources), so the check is
-run by hand (about 40 minutes), not in CI; tests/hard/test_mutation_list.py keeps the list
-current. It exits non-zero if a mutation survives or the list went stale.
+fresh numba cache by itself (pardem/jit.py keys the cache by the sources), so the whole check
+takes long and runs as a slow-marked test (tests/hard/test_mutations.py), not in the default
+run. It exits non-zero if a mutation survives or the list went stale.
 """
 
 import subprocess
