@@ -16,8 +16,8 @@ loop also tracks the paper's total tangential displacement eta (what a run that 
 it or writes contacts pays); "both" alternates the two within every round and prints the cost
 of eta as the ratio of the medians. Default "off", the dynamics alone. ``--against REV``: the
 same runs with the code of git revision REV (checked out into a temporary worktree, its own
-bench.py's worker on its own compressed checkpoint) alternating with this code's, round by
-round; prints the ratio of the medians and the per-round ratios.
+bench.py's worker on its own compressed checkpoint of this tree's couette_B.toml) alternating
+with this code's, round by round; prints the ratio of the medians and the per-round ratios.
 """
 
 from __future__ import annotations
@@ -25,6 +25,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shutil
 import statistics
 import subprocess
 import sys
@@ -110,6 +111,9 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
             trees["old"] = Path(tmp) / "old"
             subprocess.run(["git", "-C", str(HERE.parent), "worktree", "add", "--detach",
                             str(trees["old"]), against], check=True, capture_output=True)
+            # both codes run this tree's scene (REV's may have had another wall layout)
+            shutil.copyfile(HERE / "couette_B.toml",
+                            trees["old"] / "run_scripts" / "couette_B.toml")
         try:
             ckpts = {}
             for code, tree in trees.items():
