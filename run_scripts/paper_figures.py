@@ -1,7 +1,7 @@
 """Figures 1.2-1.9 and the comparison table for the paper's runs (A, B, C) together.
 
     python run_scripts/paper_figures.py RUN_A RUN_B RUN_C [--results results/paper]
-                                        [--runs-info runs/paper/runs.json]
+                                        [--runs-info runs/paper/runs.json] [--names A B C]
 
 Writes into RESULTS: figures/*.png (averaging/plots.py), comparison.md and comparison.json
 (every number computed from the runs' rings.h5 by averaging/report.py; the paper's values are
@@ -97,8 +97,16 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("run_dirs", nargs="+", type=Path)
     ap.add_argument("--results", type=Path, default=Path("results/paper"))
     ap.add_argument("--runs-info", type=Path)
+    ap.add_argument("--names", nargs="+", choices=sorted(PAPER),
+                    help="the paper's simulation each run stands for, in order (default: the "
+                         "scene name after its last hyphen, as in couette-B)")
     args = ap.parse_args(argv)
     runs = [load_run(d) for d in args.run_dirs]
+    if args.names:
+        if len(args.names) != len(runs):
+            ap.error(f"--names: {len(args.names)} names for {len(runs)} run folders")
+        for run, name in zip(runs, args.names):
+            run["name"] = name
     out = args.results
     (out / "scenes").mkdir(parents=True, exist_ok=True)
     figures = make_figures(runs, out / "figures")

@@ -62,7 +62,12 @@ def mutate(base: dict, path: str, value) -> dict:
     return d
 
 
-DELETE = object()
+class _Delete:
+    def __repr__(self):  # a stable test id (pytest-xdist workers must collect the same ids)
+        return "DELETE"
+
+
+DELETE = _Delete()
 
 BAD_COUETTE = [
     ("contact.k_n", -1.0, r"[contact] k_n = -1.0: must be > 0 (N/m)"),

@@ -2,15 +2,19 @@
 
     python tests/hard/mutations.py
 
-Each mutation edits one source file (the guard removed or weakened), runs the one test that
-must catch it, and restores the file, whatever happens. A mutation of compiled code gets a
+Each mutation edits one source file (the guard removed or weakened) in a temporary copy of the
+tree, runs the one test that must catch it there, and restores the file; the working tree is
+never touched, so other tests may run meanwhile. A mutation of compiled code gets a
 fresh numba cache by itself (pardem/jit.py keys the cache by the sources), so the whole check
 takes long and runs as a slow-marked test (tests/hard/test_mutations.py), not in the default
 run. It exits non-zero if a mutation survives or the list went stale.
 """
 
+import os
+import shutil
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -65,19 +69,27 @@ def main() -> int:
         sys.exit("the source changed, update MUTATIONS:\n  " + "\n  ".join(stale))
     survivors = 0
     start = time.perf_counter()
-    for label, rel, old, new, test in MUTATIONS:
-        path = ROOT / rel
-        text = path.read_text()
-        path.write_text(text.replace(old, new))
-        try:
-            proc = subprocess.run([sys.executable, "-m", "pytest", "-x", "-q", "-p",
-                                   "no:cacheprovider", test], cwd=ROOT, capture_output=True,
-                                  text=True, timeout=900)
-        finally:
-            path.write_text(text)
-        caught = proc.returncode != 0
-        survivors += not caught
-        print(f"{label:50s} -> {'caught' if caught else 'NOT CAUGHT'} by {test}", flush=True)
+    with tempfile.TemporaryDirectory() as tmp:
+        tree = Path(tmp)
+        skip = shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc")
+        for part in ("pardem", "averaging", "tests", "run_scripts", "docs"):
+            shutil.copytree(ROOT / part, tree / part, ignore=skip)
+        shutil.copy(ROOT / "pyproject.toml", tree)
+        env = dict(os.environ, PYTHONPATH=str(tree))  # the copy shadows the installed pardem
+        for label, rel, old, new, test in MUTATIONS:
+            path = tree / rel
+            text = path.read_text()
+            path.write_text(text.replace(old, new))
+            try:
+                proc = subprocess.run([sys.executable, "-m", "pytest", "-x", "-q", "-p",
+                                       "no:cacheprovider", "-p", "no:xdist", test], cwd=tree,
+                                      env=env, capture_output=True, text=True, timeout=900)
+            finally:
+                path.write_text(text)
+            # exit code 1: the test ran and failed (not a collection or usage error)
+            caught = proc.returncode == 1 and " failed" in proc.stdout
+            survivors += not caught
+            print(f"{label:50s} -> {'caught' if caught else 'NOT CAUGHT'} by {test}", flush=True)
     print(f"{len(MUTATIONS) - survivors} of {len(MUTATIONS)} caught in "
           f"{time.perf_counter() - start:.0f} s", flush=True)
     return survivors
