@@ -10,6 +10,11 @@ command and the machine are written to RUNS/runs.json before the figures are mad
 ``--skip-runs`` can redo the figures and the table from finished runs. Figures, table, resolved
 scene files and run information go to RESULTS (default results/paper, committed); the raw run
 folders (about 0.3 GB each) stay in RUNS, outside git.
+
+``--from-study DIR`` makes the figures and table from the roughness study's runs in DIR
+(``run_scripts/roughness_study.py --runs DIR``) instead of running: seed 1 of A, B and C with
+the layout its rule picked, which are the shipped scenes (seed 1, that layout) under another
+name; the command and wall time of each come from its table in docs/roughness/runs/.
 """
 
 from __future__ import annotations
@@ -20,6 +25,7 @@ import os
 import platform
 import subprocess
 import sys
+import tempfile
 import time
 from pathlib import Path
 
@@ -62,7 +68,11 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--results", type=Path, default=Path("results/paper"))
     ap.add_argument("--only", nargs="+", default=["A", "B", "C"], choices=["A", "B", "C"])
     ap.add_argument("--skip-runs", action="store_true", help="figures and table only")
+    ap.add_argument("--from-study", type=Path, metavar="DIR",
+                    help="figures and table from the roughness study's runs in DIR")
     args = ap.parse_args(argv)
+    if args.from_study:
+        return from_study(args.from_study, args.results)
     args.runs.mkdir(parents=True, exist_ok=True)
     info_path = args.runs / "runs.json"
     info = json.loads(info_path.read_text()) if info_path.exists() else {}
@@ -79,6 +89,32 @@ def main(argv: list[str] | None = None) -> int:
     return paper_figures.main([str(args.runs / n) for n in ("A", "B", "C")
                                if (args.runs / n / "rings.h5").exists()]
                               + ["--results", str(args.results), "--runs-info", str(info_path)])
+
+
+def from_study(runs: Path, results: Path) -> int:
+    sys.path.insert(0, str(HERE))
+    import paper_figures  # noqa: E402
+    import roughness_study as study  # noqa: E402
+
+    layout, _ = study.pick({name: study.rows_of(f"{name}-B") for name in study.LAYOUTS})
+    names = [f"{layout}-{x}-s1" for x in ("A", "B", "C")]
+    missing = [n for n in names if not (runs / n / "rings.h5").exists()
+               or not (study.TABLES / f"{n}.json").exists()]
+    if missing:
+        raise SystemExit(f"--from-study {runs}: no finished run {', '.join(missing)}")
+    info = {}
+    for x, name in zip(("A", "B", "C"), names):
+        row = json.loads((study.TABLES / f"{name}.json").read_text())
+        info[x] = {"command": f"{row['command']} (roughness study, {row['ranks']} rank(s); "
+                              f"= couette_{x}.toml)", "wall_s": row["wall_s"],
+                   "ranks": row["ranks"]}
+    info["machine"] = machine()
+    with tempfile.TemporaryDirectory() as tmp:
+        info_path = Path(tmp) / "runs.json"  # comparison.json keeps it
+        info_path.write_text(json.dumps(info, indent=2))
+        return paper_figures.main([str(runs / n) for n in names]
+                                  + ["--results", str(results), "--runs-info", str(info_path),
+                                     "--names", "A", "B", "C"])
 
 
 if __name__ == "__main__":
