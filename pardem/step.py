@@ -100,8 +100,10 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 if disp + 0.5 * clock.reach[0] > 0.5 * prm.skin:
                     clock.disp[0] = disp
                     return NEED_REBUILD, -1
+            # the applied forces are stored for the state this call ends in (output reads them)
+            record = forces_only or clock.step[0] >= target
             contact_forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], o,
-                           opts.rotation, opts.walls, work)
+                           opts.rotation, opts.walls, work, record)
             if forces_only:
                 # one call site of the force loop: each inlined copy costs ~40 s of compiling
                 clock.phase[0] = 0
