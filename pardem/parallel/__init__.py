@@ -10,6 +10,7 @@ process was started by an MPI launcher with more than one rank.
 from __future__ import annotations
 
 import os
+import time
 
 from .serial import SerialDecomposition
 
@@ -55,6 +56,9 @@ def decomposition(comm, reach_width: float, inner_radius: float = 0.0, margin: f
 
 
 def abort(comm, code: int = 1) -> None:
-    """End every rank of ``comm`` (after an error on this one), so none waits forever."""
+    """End every rank of ``comm`` (after an error on this one), so none waits forever. The
+    short pause lets mpiexec's proxy forward what this rank just wrote to stderr: an immediate
+    Abort was seen to lose the error message on a busy machine."""
     if comm is not None and comm.Get_size() > 1:
+        time.sleep(0.5)
         comm.Abort(code)
