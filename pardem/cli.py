@@ -1,4 +1,5 @@
-"""Command line: ``pardem run SCENE.toml [--out DIR] [--end T] [--restart CHECKPOINT]``,
+"""Command line: ``pardem run SCENE.toml [--out DIR] [--end T] [--restart CHECKPOINT]
+[--overwrite]``,
 ``pardem average DIR [...]`` (ring averages from snapshots), ``pardem plot DIR [DIR ...]`` (the
 paper's figures).
 
@@ -27,7 +28,10 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("scene", help="scene file (TOML)")
     run.add_argument("--out", help="output folder (default: runs/<scene name>)")
     run.add_argument("--end", type=float, help="end time in s (default: the scene's [time] end)")
-    run.add_argument("--restart", help="checkpoint file to continue from")
+    run.add_argument("--restart", help="checkpoint file (or run folder) to continue from")
+    run.add_argument("--overwrite", action="store_true",
+                     help="replace the run in the output folder (refused otherwise, except a "
+                          "restart of the same scene, which continues it)")
     run.add_argument("--quiet", action="store_true", help="no progress line")
     avg = sub.add_parser("average", help="ring-average the snapshots of a run folder")
     avg.add_argument("run_dir", help="run folder (scene.toml + particles.h5)")
@@ -60,7 +64,13 @@ def main(argv: list[str] | None = None) -> int:
         scene = load_scene(args.scene)
         out = Path(args.out) if args.out else Path("runs") / scene.info.name
         _collective(comm, _check_writable, out)
-        sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm)
+        if root:  # the first run with a set of effects spends a minute in numba
+            sys.stderr.write(f"pardem: {scene.info.name}: building the initial state and the "
+                             "compiled kernels (compiled on the first run with this scene's set "
+                             "of effects, about a minute; loaded from the cache later)\n")
+            sys.stderr.flush()
+        sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm,
+                         overwrite=args.overwrite)
         if root:
             sys.stderr.write(
                 f"pardem: {scene.info.name}: {sim.n_free} particles, dt = {sim.dt:.4g} s, "

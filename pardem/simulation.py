@@ -25,15 +25,17 @@ import numpy as np
 
 from .contact.history import carry_history, live_history
 from .contact.model import history_columns, law_params, options_for
-from .output.progress import breakdown, log_line, progress_line, show_progress
+from .output.progress import breakdown, end_progress, log_line, progress_line, show_progress
 from .output.restart import gather_state, restore
 from .output.snapshots import write_snapshot
 from .output.checkpoint import save_checkpoint
-from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots, sample_steps
+from .output.folder import claim_folder
+from .output.averages import make_averager, resume, sample_grid
+from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
 from .placement import initial_configuration, whole_cell
 from .rebuild import place_idle_walls, rebuild
-from .scene import Scene, write_scene
+from .scene import Scene, SceneError, write_scene
 from .state import Params, new_clock, new_pairs, new_particles, packed, unpack_particles
 from .step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
@@ -59,7 +61,8 @@ def tracks_eta(scene: Scene, writes_output: bool) -> bool:
 
 class Simulation(StateViews):
     """One scene's state and run loop: ``Simulation(scene, out_dir=None, restart=None,
-    comm=None)``, ``run(end=None, progress=True)``, ``advance_steps(n)``.
+    comm=None, overwrite=False)``, ``run(end=None, progress=True)``, ``advance_steps(n)``.
+    ``out_dir`` must not hold another run unless ``overwrite`` (output/folder.py).
 
     Public state: ``time`` (s), ``step``, ``dt`` (s), ``n_free``, ``timers`` (s per stage),
     ``n_rebuilds``, ``rings`` (the in-situ RingAverager after a run with [averaging]).
@@ -71,7 +74,7 @@ class Simulation(StateViews):
     """
 
     def __init__(self, scene: Scene, out_dir: str | Path | None = None,
-                 restart: str | Path | None = None, comm=None):
+                 restart: str | Path | None = None, comm=None, overwrite: bool = False):
         self.scene = scene
         self.out_dir = Path(out_dir) if out_dir is not None else None
         self.dt = resolve_dt(scene)
@@ -85,7 +88,6 @@ class Simulation(StateViews):
         self.stepper = make_stepper(self.options)
         self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "averaging": 0.0,
                        "snapshots": 0.0, "checkpoints": 0.0, "progress": 0.0}
-        self.rings = None  # the in-situ RingAverager ([averaging] table), kept across run() calls
         self.n_rebuilds = 0
         skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
         c = scene.contact
@@ -100,10 +102,18 @@ class Simulation(StateViews):
         ps = whole_cell(init, self.hist)
         n = ps.gid.size
         self.clock = new_clock(init.n_free, n, self.prm.rings.r_out0)
+        # the in-situ averager ([averaging] table; None without), kept across run() calls
+        self.rings = make_averager(scene, self._free_radii, self.decomp)
         history, recorded = None, None
         if restart is not None:
-            self.clock.step[0], history, recorded = restore(
+            self.clock.step[0], history, recorded, averages = restore(
                 restart, ps, scene, self.dt, self.history_columns, self.decomp, self.log)
+            resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
+        if self.out_dir is not None:
+            removed = self.decomp.bcast_call(claim_folder, self.out_dir, scene, restart,
+                                             overwrite)
+            if removed:
+                self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
         self.decomp.place_sectors(ps.x[:init.n_free])
         owner = self.decomp.sectors.owner(ps.x[:init.n_free])
         mine = np.flatnonzero(owner == self.decomp.rank)
@@ -214,6 +224,9 @@ class Simulation(StateViews):
         report times are rank 0's decisions."""
         end = self.scene.time.end if end is None else end
         end_step = int(round(end / self.dt))
+        if end_step < self.step:
+            raise SceneError(f"--end {end:.6g} s lies before the run's current time "
+                             f"{self.time:.6g} s (the checkpoint's): nothing to run")
         out = self.scene.output
         root = self.decomp.rank == 0
         writers = self._ring_writers(end_step)
@@ -227,7 +240,7 @@ class Simulation(StateViews):
                      f"{self.n_free} particles, dt = {self.dt:.6g} s, {self.decomp.describe()}")
             if snapshots.trigger.due(self.step):
                 self._timed("snapshots", self.write_snapshot)
-        wall0, step0 = time.perf_counter(), self.step
+        since = [time.perf_counter(), self.step]  # the last report's wall time and step
         chunk, last_report = 1000, 0.0
         every = 1.0 if progress else (10.0 if self.out_dir is not None else math.inf)
         while self.step < end_step:
@@ -246,29 +259,21 @@ class Simulation(StateViews):
                     self._timed(w.stage, w.write, self)
             if report:
                 last_report = t1
-                self._timed("progress", self._report, wall0, step0, end_step, progress)
+                self._timed("progress", self._report, since, end_step, progress)
         for w in writers:
             self._timed(w.stage, w.close, self)
         self.log(breakdown(self))
         if progress and root:
-            sys.stderr.write("\n" + breakdown(self) + "\n")
+            end_progress()
+            sys.stderr.write(breakdown(self) + "\n")
 
     def _ring_writers(self, end_step: int) -> list:
-        """The in-situ ring sampler of the scene's [averaging] table (none without one): the
-        multiples of round(sample_interval/dt) nearest to start .. end (the snapshot rule, so
-        offline averaging of snapshots sees the same states); a later run() continues it."""
-        cfg, g = self.scene.averaging, self.scene.geometry
-        if cfg is None or g is None:
-            return []
-        steps = sample_steps(cfg.start, cfg.end, cfg.sample_interval, self.dt)
-        steps = steps[(steps <= end_step) & (steps > self.step)]
+        """The in-situ ring sampler (none without [averaging]) at the sample steps after this
+        one, up to ``end_step``; its samples so far are kept (a later run() continues them)."""
         if self.rings is None:
-            from averaging.timeavg import RingAverager  # averaging builds on pardem
-
-            d_ref = cfg.reference_diameter or 2.0 * float(np.mean(self._free_radii))
-            self.rings = RingAverager(g.inner_radius, g.outer_radius, cfg.ring_width,
-                                      cfg.weighting, self.scene.contact.height, d_ref,
-                                      self.scene.contact.k_n, g.omega_inner, self.decomp)
+            return []
+        steps = sample_grid(self.scene, self.dt)
+        steps = steps[(steps <= end_step) & (steps > self.step)]
         return [RingSamples(At(steps), self.rings, self.out_dir)]
 
     def advance_steps(self, n: int) -> None:
@@ -302,11 +307,14 @@ class Simulation(StateViews):
         fn(*args)
         self.timers[stage] += time.perf_counter() - t0
 
-    def _report(self, wall0: float, step0: int, end_step: int, progress: bool) -> None:
+    def _report(self, since: list, end_step: int, progress: bool) -> None:
+        # the rate window runs from the end of the last report to the start of this one
+        elapsed, steps = time.perf_counter() - since[0], self.step - since[1]
         e_kin, overlap = self.kinetic_energy(), self.max_overlap()  # collective
+        since[:] = time.perf_counter(), self.step
         if self.decomp.rank != 0:
             return
-        line = progress_line(self, wall0, step0, end_step, e_kin, overlap)
+        line = progress_line(self, elapsed, steps, end_step, e_kin, overlap)
         self.log(line)
         if progress:
             show_progress(line)

@@ -49,7 +49,7 @@ def run_one(name: str, ranks: int, out: Path) -> dict:
     mpiexec = Path(sys.executable).parent / "mpiexec"
     pardem = Path(sys.executable).parent / "pardem"
     cmd = [str(mpiexec), "-n", str(ranks), str(pardem), "run",
-           str(HERE / f"couette_{name}.toml"), "--out", str(out)]
+           str(HERE / f"couette_{name}.toml"), "--out", str(out), "--overwrite"]
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     print(f"[{name}] {' '.join(cmd)}", flush=True)
     t0 = time.perf_counter()
@@ -57,7 +57,8 @@ def run_one(name: str, ranks: int, out: Path) -> dict:
     wall = time.perf_counter() - t0
     print(f"[{name}] done in {wall / 60:.1f} min", flush=True)
     return {"command": " ".join(["mpiexec", "-n", str(ranks), "pardem", "run",
-                                 f"run_scripts/couette_{name}.toml", "--out", str(out)]),
+                                 f"run_scripts/couette_{name}.toml", "--out", str(out),
+                                 "--overwrite"]),
             "wall_s": wall, "ranks": ranks}
 
 

@@ -12,7 +12,7 @@ selects from the finished layout runs; ``claims`` runs the paper's claims withou
 (4 k_n; neither bottom nor tangential friction; Omega = 0). Every run is
 ``pardem run SCENE --out RUNS/NAME`` with the full protocol (239 s, averages 180-239 s). The
 script is resumable: a run whose JSON exists is skipped, and an interrupted run continues from
-its checkpoint if that lies before the averaging window, so an interrupted study continues
+its checkpoint (which carries the ring samples taken so far), so an interrupted study continues
 where it stopped; raw run folders (~0.3 GB each) stay in RUNS, outside git. ``--jobs``
 concurrent runs of ``--ranks`` ranks each (on 2 cores: 2 jobs of 1 rank).
 """
@@ -126,13 +126,15 @@ def run_one(name: str, scene, runs: Path, ranks: int) -> dict | None:
     write_scene(scene, path)
     bindir = Path(sys.executable).parent
     cmd = [str(bindir / "pardem"), "run", str(path), "--out", str(out), "--quiet"]
-    # an interrupted run continues from its checkpoint while that lies before the averaging
-    # window (a restart would drop in-situ samples taken before it); else it starts again
-    restarted = checkpoint_time(out / "checkpoint.h5")
-    if restarted is not None and restarted < scene.averaging.start:
+    # an interrupted run continues from its checkpoint, which carries the ring samples taken
+    # so far; one written before pardem kept them (no rings_layout) only if it lies before
+    # the averaging window. Else the run starts again, replacing the folder's files.
+    restarted, has_samples = checkpoint_time(out / "checkpoint.h5")
+    if restarted is not None and (has_samples or restarted < scene.averaging.start):
         cmd += ["--restart", str(out / "checkpoint.h5")]
     else:
         restarted = None
+        cmd += ["--overwrite"]
     if ranks > 1:
         cmd = [str(bindir / "mpiexec"), "-n", str(ranks)] + cmd
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
@@ -159,15 +161,16 @@ def run_one(name: str, scene, runs: Path, ranks: int) -> dict | None:
     return row
 
 
-def checkpoint_time(path: Path) -> float | None:
-    """Simulated time (s) of a run folder's checkpoint, or None if there is none."""
+def checkpoint_time(path: Path) -> tuple[float | None, bool]:
+    """Simulated time (s) of a run folder's checkpoint (None if there is none), and whether it
+    carries the ring samples taken before it."""
     import h5py
 
     try:
         with h5py.File(path, "r") as h5:
-            return float(h5.attrs["time"])
+            return float(h5.attrs["time"]), "rings_layout" in h5.attrs
     except (OSError, KeyError):
-        return None
+        return None, False
 
 
 # ---------------------------------------------------------------- measures of one run

@@ -20,6 +20,9 @@ def test_run_writes_snapshots_checkpoint_and_resolved_scene(tmp_path, capsys):
     assert main(["run", str(SCENES / "two_small.toml"), "--out", str(tmp_path)]) == 0
     err = capsys.readouterr().err
     assert "steps/s" in err and "ETA" in err and "max overlap" in err and "E_kin" in err
+    # stderr is not a terminal here: plain lines, as a batch job's log shows them
+    assert "\r" not in err
+    assert all(line.startswith("t = ") for line in err.splitlines() if "ETA" in line)
     assert "time per stage" in err and "forces+integration" in err
     snaps = list(pardem.read_snapshots(tmp_path))
     scene = pardem.load_scene(tmp_path / "scene.toml")
@@ -106,3 +109,28 @@ def test_more_particles_than_fit_is_refused(tmp_path, capsys):
     assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert "cannot place 25844 particles" in err and "outer_start_radius" in err
+
+
+def test_a_folder_holding_another_run_needs_overwrite(tmp_path, capsys):
+    """A new run never mixes its files with another run's: refused without --overwrite, which
+    replaces that run (no snapshot of the old run is left); a restart of the same scene into
+    its own folder continues it, and --restart accepts the run folder."""
+    scene, out = str(SCENES / "two_small.toml"), str(tmp_path / "run")
+    assert main(["run", scene, "--out", out, "--end", "0.02", "--quiet"]) == 0
+    before = [s["time"] for s in pardem.read_snapshots(out)]
+    capsys.readouterr()
+    assert main(["run", scene, "--out", out, "--end", "0.01", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "holds another run" in err and "particles.h5" in err and "--overwrite" in err
+    assert [s["time"] for s in pardem.read_snapshots(out)] == before  # untouched
+    assert main(["run", scene, "--out", out, "--end", "0.01", "--quiet", "--overwrite"]) == 0
+    after = [s["time"] for s in pardem.read_snapshots(out)]
+    assert after[-1] == pytest.approx(0.01, abs=1e-4) and len(after) < len(before)
+    assert main(["run", scene, "--out", out, "--end", "0.02", "--quiet", "--restart", out]) == 0
+    assert [s["time"] for s in pardem.read_snapshots(out)][-1] == pytest.approx(0.02, abs=1e-4)
+
+
+def test_restart_from_a_folder_without_checkpoint_is_refused(tmp_path, capsys):
+    assert main(["run", str(SCENES / "two_small.toml"), "--out", str(tmp_path / "o"),
+                 "--restart", str(tmp_path)]) == 2
+    assert f"--restart {tmp_path}: a folder without checkpoint.h5" in capsys.readouterr().err

@@ -169,6 +169,37 @@ def test_pardem_run_on_2_ranks_writes_the_serial_snapshots(tmp_path):
             np.testing.assert_array_equal(s[key][()], p[key][()], key)
 
 
+def test_averages_of_a_run_restarted_on_2_ranks_equal_the_uninterrupted_runs(tmp_path):
+    """A serial run stopped inside the averaging window and continued from its checkpoint on
+    2 ranks writes the uninterrupted serial run's ring averages: the samples before the
+    checkpoint come from it bit for bit, the later ones agree to 1e-12 relative (summation
+    order), and so do the fields."""
+    from averaging.io import read_rings
+    from pardem.cli import main
+
+    scene = fast_shear_scene(tmp_path, averaging={"start": 0.15, "end": 0.3,
+                                                  "sample_interval": 0.025,
+                                                  "ring_width": 0.9275e-3},
+                             output={"checkpoint_interval": 0.1})
+    assert main(["run", str(scene), "--out", str(tmp_path / "whole"), "--end", "0.3",
+                 "--quiet"]) == 0
+    assert main(["run", str(scene), "--out", str(tmp_path / "cut"), "--end", "0.2",
+                 "--quiet"]) == 0
+    run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / "cut"), "--end",
+             "0.3", "--restart", str(tmp_path / "cut" / "checkpoint.h5"), "--quiet"], 2,
+            module=False)
+    whole, cut = read_rings(tmp_path / "whole"), read_rings(tmp_path / "cut")
+    assert whole["times"].size == 7 and np.abs(whole["sums"]).max() > 0
+    np.testing.assert_array_equal(cut["times"], whole["times"])
+    np.testing.assert_array_equal(cut["sums"][:3], whole["sums"][:3])  # 0.15, 0.175, 0.2 s
+    scale = np.abs(whole["sums"]).max(axis=(0, 1))
+    assert np.all(np.abs(cut["sums"] - whole["sums"]) <= 1e-12 * scale + 1e-300)
+    for key in ("nu", "v_phi", "sigma_rr", "F_rr", "mu_c"):
+        np.testing.assert_allclose(cut[key], whole[key], rtol=1e-9, atol=0, err_msg=key)
+    assert "continuing the ring averages from its 3 samples" in (
+        tmp_path / "cut" / "log.txt").read_text()
+
+
 def test_ring_sums_do_not_depend_on_the_number_of_ranks(tmp_path):
     """In-situ averaging: every rank sums its owned particles, one Allreduce per sample; the
     totals of 1, 2 and 3 ranks agree to 1e-12 relative (only the summation order differs)."""

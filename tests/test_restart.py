@@ -1,11 +1,13 @@
 """Checkpoint + restart continues the trajectory bit for bit (frictional Couette scene with rings,
 compression and wall disks, so contact history and the ring angle are exercised)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 from helpers import couette_scene
 
-from pardem.scene import SceneError
+from pardem.scene import SceneError, scene_from_dict
 from pardem.simulation import Simulation
 
 FIELDS = ("gid", "x", "v", "theta", "omega", "f", "tau", "hist_wall", "pair_lo", "pair_hi",
@@ -73,3 +75,68 @@ def test_truncated_checkpoint_is_refused(tmp_path):
     (tmp_path / "bad.h5").write_bytes(data[: len(data) // 2])
     with pytest.raises(SceneError, match="bad.h5"):
         Simulation(small_cell(), restart=tmp_path / "bad.h5")
+
+
+AVERAGING = {"start": 0.1, "end": 0.3, "sample_interval": 0.025, "ring_width": 2e-3}
+
+
+def averaged_cell(**averaging):
+    scene = small_cell()
+    return dataclasses.replace(scene, averaging=scene_from_dict(
+        {**scene.to_dict(), "averaging": {**AVERAGING, **averaging}}).averaging)
+
+
+def test_a_restart_continues_the_ring_averages_exactly(tmp_path):
+    """The checkpoint carries the ring samples taken so far: a run interrupted inside the
+    averaging window and continued from its checkpoint writes the uninterrupted run's
+    rings.h5, every sample and field bit for bit (same rank count)."""
+    from averaging.io import read_rings
+
+    ref = Simulation(averaged_cell(), out_dir=tmp_path / "ref")
+    ref.run(end=0.3, progress=False)
+    cut = Simulation(averaged_cell(), out_dir=tmp_path / "cut")
+    cut.run(end=0.2, progress=False)  # 5 of the 9 samples, then the final checkpoint
+    again = Simulation(averaged_cell(), out_dir=tmp_path / "cut",
+                       restart=tmp_path / "cut" / "checkpoint.h5")
+    assert len(again.rings.samples) == 5
+    again.run(end=0.3, progress=False)
+    a, b = read_rings(tmp_path / "cut"), read_rings(tmp_path / "ref")
+    assert b["times"].size == 9 and np.abs(b["sums"]).max() > 0
+    assert set(a) == set(b)
+    for key in b:
+        np.testing.assert_array_equal(a[key], b[key], key)
+
+
+@pytest.mark.parametrize("change, message", [
+    ({"ring_width": 3e-3}, r"ring_width = 0\.002.*has 0\.003"),
+    ({"weighting": "exact"}, "weighting"),
+    ({"displacement": "spring"}, "displacement"),
+    ({"sample_interval": 0.05}, "start or sample_interval differ"),
+    ({"start": 0.15}, "start or sample_interval differ"),
+])
+def test_a_restart_whose_averaging_cannot_continue_the_samples_is_refused(tmp_path, change,
+                                                                           message):
+    sim = Simulation(averaged_cell(), out_dir=tmp_path)
+    sim.run(end=0.15, progress=False)
+    with pytest.raises(SceneError, match=message):
+        Simulation(averaged_cell(**change), restart=tmp_path / "checkpoint.h5")
+
+
+def test_averaging_that_starts_before_a_checkpoint_without_samples_is_refused(tmp_path):
+    """A checkpoint written without [averaging] (or by pardem before it kept the samples)
+    cannot feed averages that should have begun before it; one from before the window can."""
+    sim = Simulation(small_cell(), out_dir=tmp_path)
+    sim.run(end=0.15, progress=False)
+    with pytest.raises(SceneError, match=r"holds no ring samples.*start = 0\.1 s"):
+        Simulation(averaged_cell(), restart=tmp_path / "checkpoint.h5")
+    later = Simulation(averaged_cell(start=0.2), restart=tmp_path / "checkpoint.h5")
+    assert later.rings.samples == []
+
+
+def test_end_before_the_checkpoint_is_an_error(tmp_path):
+    sim = Simulation(small_cell(), out_dir=tmp_path)
+    sim.run(end=0.15, progress=False)
+    again = Simulation(small_cell(), out_dir=tmp_path, restart=tmp_path / "checkpoint.h5")
+    with pytest.raises(SceneError, match=r"--end 0\.1 s lies before the run's current time "
+                                         r"0\.15"):
+        again.run(end=0.1, progress=False)

@@ -6,7 +6,9 @@ for its next half kick), the contact history keyed by (gid_lo, gid_hi) (``pair_l
 ``pair_hi``, ``pair_hist``; columns named in the attribute ``history_columns``), the applied
 forces of touching pairs (``force_lo``, ``force_hi``, ``pair_force`` [m,3]) and of ring
 contacts (``ring_force`` [n,3]); attributes: the step (time = step * dt), time, dt, the
-inner-ring angle, the scene fingerprint (a restart of a different scene is refused). Version 1
+inner-ring angle, the scene fingerprint (a restart of a different scene is refused). With
+in-situ averaging, the ring samples so far (``rings_sums``, ``rings_times``,
+``rings_inner_torque``; attribute ``rings_layout``: see ``averages.py``). Version 1
 files (pardem before the contact-model slots) are read too. The file is written as
 ``NAME.tmp`` and renamed, so a crash never leaves a broken checkpoint.
 """
@@ -44,6 +46,10 @@ def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
 def load_checkpoint(path: str | os.PathLike) -> tuple[dict[str, np.ndarray], dict[str, object]]:
     """``(arrays, attrs)`` of a checkpoint; attrs["history_columns"] as a tuple of names."""
     path = Path(path)
+    if path.is_dir():  # a run folder: its checkpoint
+        if not (path / "checkpoint.h5").is_file():
+            raise SceneError(f"--restart {path}: a folder without checkpoint.h5")
+        path = path / "checkpoint.h5"
     if not path.exists():
         raise SceneError(f"--restart {path}: file does not exist")
     try:

@@ -22,12 +22,14 @@ def log_line(out_dir: Path | None, text: str) -> None:
         f.write(f"{stamp} {text}\n")
 
 
-def progress_line(sim, wall0: float, step0: int, end_step: int, e_kin: float,
+def progress_line(sim, elapsed: float, steps: int, end_step: int, e_kin: float,
                   overlap: float) -> str:
-    """Simulated time, rate, ETA, kinetic energy and largest overlap of a running Simulation."""
+    """Simulated time, rate, ETA, kinetic energy and largest overlap of a running Simulation.
+    The rate (and the ETA from it) is that of the last ``steps`` steps, taken in ``elapsed``
+    seconds (since the previous report): a rate averaged from the start would count the
+    first chunk's set-up and hide a run that slows down as it compacts."""
     step = sim.step
-    elapsed = time.perf_counter() - wall0
-    rate = (step - step0) / elapsed if elapsed > 0 else 0.0
+    rate = steps / elapsed if elapsed > 0 else 0.0
     eta = (end_step - step) / rate if rate > 0 else math.inf
     return (f"t = {sim.time:9.3f} / {end_step * sim.dt:.3f} s | {rate:9.0f} steps/s | "
             f"{rate * sim.n_free / 1e6:6.2f} M particle-steps/s | ETA {eta:7.1f} s | "
@@ -35,8 +37,19 @@ def progress_line(sim, wall0: float, step0: int, end_step: int, e_kin: float,
 
 
 def show_progress(line: str) -> None:
-    sys.stderr.write("\r" + line + " ")
+    """On a terminal, one line rewritten in place; otherwise (a batch job's log, a pipe) one
+    plain line per report, like LAMMPS' thermo output."""
+    if sys.stderr.isatty():
+        sys.stderr.write("\r" + line + " ")
+    else:
+        sys.stderr.write(line + "\n")
     sys.stderr.flush()
+
+
+def end_progress() -> None:
+    """Close the line show_progress rewrites in place (a terminal only)."""
+    if sys.stderr.isatty():
+        sys.stderr.write("\n")
 
 
 def breakdown(sim) -> str:

@@ -5,7 +5,8 @@ Stage: output / restart. The file format itself is ``checkpoint.py``. A checkpoi
 particle array, the contact history keyed by gid pairs (its columns named, so a run that tracks
 more or fewer columns than the one that wrote it can continue), and the forces the last step
 applied to every touching pair and ring contact (so output right after a restart reports them
-exactly). A restarted run continues bit for bit, on any number of ranks.
+exactly), and the ring samples taken so far (``averages.py``). A restarted run continues bit for
+bit, on any number of ranks, and so do its averages.
 """
 
 from __future__ import annotations
@@ -15,6 +16,8 @@ import numpy as np
 from ..contact.history import merge_history
 from ..scene import SceneError
 from ..state import FREE
+from .averages import ARRAYS as AVERAGE_ARRAYS
+from .averages import checkpoint_part
 from .checkpoint import ARRAYS, load_checkpoint
 
 
@@ -59,6 +62,10 @@ def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
              "ring_angle": sim.prm.rings.omega_in * sim.time,
              "fingerprint": sim.scene.fingerprint(), "n_free": sim.n_free, "ranks": d.size,
              "history_columns": ",".join(sim.history_columns)}
+    if sim.rings is not None:
+        rings, layout = checkpoint_part(sim.rings, sim.scene)
+        arrays.update(rings)
+        attrs.update(layout)
     return arrays, attrs
 
 
@@ -66,8 +73,9 @@ def restore(path, ps, scene, dt: float, columns: tuple[str, ...], decomp, log):
     """Fill the whole-cell arrays ``ps`` (gid order) from the checkpoint at ``path`` (read on
     rank 0, sent to all). Returns ``(step, history, forces)``: the step to continue from, the
     history table (lo, hi, rows with this run's ``columns``; None without history) and the
-    recorded forces ``(lo, hi, [m,3] pair forces, [n,3] ring forces)``. SceneError if the
-    checkpoint belongs to another scene or is damaged."""
+    recorded forces ``(lo, hi, [m,3] pair forces, [n,3] ring forces)`` and the ring samples
+    (averages.ARRAYS and the attribute ``rings_layout``, where the checkpoint has them; for
+    ``averages.resume``). SceneError if the checkpoint belongs to another scene or is damaged."""
     arrays, attrs = decomp.bcast_call(load_checkpoint, path)
     if attrs["fingerprint"] != scene.fingerprint():
         raise SceneError(f"--restart {path}: the checkpoint belongs to a different scene "
@@ -90,7 +98,10 @@ def restore(path, ps, scene, dt: float, columns: tuple[str, ...], decomp, log):
                else None)
     forces = (arrays["force_lo"], arrays["force_hi"], arrays["pair_force"],
               arrays["ring_force"])
-    return int(attrs["step"]), history, forces
+    averages = {k: arrays[k] for k in AVERAGE_ARRAYS if k in arrays}
+    if "rings_layout" in attrs:
+        averages["rings_layout"] = str(attrs["rings_layout"])
+    return int(attrs["step"]), history, forces, averages
 
 
 def _history_columns(path, rows: np.ndarray, written: tuple[str, ...],

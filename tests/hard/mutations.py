@@ -76,20 +76,31 @@ def main() -> int:
             shutil.copytree(ROOT / part, tree / part, ignore=skip)
         shutil.copy(ROOT / "pyproject.toml", tree)
         env = dict(os.environ, PYTHONPATH=str(tree))  # the copy shadows the installed pardem
+
+        def pytest(*tests):
+            return subprocess.run([sys.executable, "-m", "pytest", "-x", "-q", "-p",
+                                   "no:cacheprovider", "-n", "0", *tests], cwd=tree, env=env,
+                                  capture_output=True, text=True, timeout=1800)
+
+        # a test that fails on the intact code would count every mutation as caught
+        intact = pytest(*sorted({test for *_, test in MUTATIONS}))
+        if intact.returncode != 0:
+            print("the intact tree fails its own tests:\n" + intact.stdout[-3000:], flush=True)
+            return len(MUTATIONS)
         for label, rel, old, new, test in MUTATIONS:
             path = tree / rel
             text = path.read_text()
             path.write_text(text.replace(old, new))
             try:
-                proc = subprocess.run([sys.executable, "-m", "pytest", "-x", "-q", "-p",
-                                       "no:cacheprovider", "-p", "no:xdist", test], cwd=tree,
-                                      env=env, capture_output=True, text=True, timeout=900)
+                proc = pytest(test)
             finally:
                 path.write_text(text)
             # exit code 1: the test ran and failed (not a collection or usage error)
             caught = proc.returncode == 1 and " failed" in proc.stdout
             survivors += not caught
             print(f"{label:50s} -> {'caught' if caught else 'NOT CAUGHT'} by {test}", flush=True)
+            if not caught:
+                print("    " + (proc.stdout + proc.stderr)[-1500:].replace("\n", "\n    "))
     print(f"{len(MUTATIONS) - survivors} of {len(MUTATIONS)} caught in "
           f"{time.perf_counter() - start:.0f} s", flush=True)
     return survivors
