@@ -1,6 +1,7 @@
 """Every guard of the hard-case suite is needed: ``tests/hard/mutations.py`` removes each one in
 turn and runs the test that must catch it. Marked slow (``python -m pytest -m slow``): a
-mutation of compiled code starts a cold numba cache, about 40 minutes in all on 2 cores."""
+mutation of compiled code starts a cold numba cache, about 12 minutes in all on a busy 2-core
+machine."""
 
 import subprocess
 import sys
