@@ -35,7 +35,7 @@ from pathlib import Path
 import numpy as np
 
 from pardem.scene import load_scene
-from pardem.walls import wall_layout
+from pardem.check import volume_fraction
 
 from .io import read_rings
 from .timeavg import ERROR_BLOCKS, block_error
@@ -47,13 +47,7 @@ PAPER = {"A": {"v0": 0.670, "s": 1.662, "nu_bar": 0.8084},
 
 def global_volume_fraction(scene) -> float:
     """v-bar of SPEC §2: free disks plus half of every wall disk, over pi (R_o^2 - R_i^2)."""
-    g = scene.geometry
-    disks = sum(s.count * math.pi * s.diameter**2 / 4 for s in scene.species)
-    wall_area = 0.0
-    for ring in ("inner", "outer"):
-        w = wall_layout(g, ring)
-        wall_area += 0.5 * w.count * math.pi * w.diameter**2 / 4
-    return (disks + wall_area) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
+    return volume_fraction(scene)
 
 
 def load_run(run_dir: str | Path) -> dict:

@@ -1,10 +1,11 @@
 """pardem: an MPI-parallel 2D discrete-element simulator of a granular Couette shear cell.
 
-Data flow: scene.py (TOML -> frozen dataclasses) -> placement.py (initial arrays) ->
-simulation.py (state, run loop, writers) -> stepper.py (compiled time-step loop: contact.py for
-the force law, walls.py for the rings, neighbors.py for the Verlet list) -> output/.
-Under MPI: sectors.py (who owns what: geometry only), decomposition.py (migration, ghosts,
-gathers; mpi4py) and mpi_native.py (the per-step ghost refresh, called from compiled code).
+Data flow: scene.py (TOML -> frozen dataclasses; checks in schema.py) -> placement.py (initial
+arrays) -> simulation.py (state, run loop, writers; read it top to bottom) -> step.py (the
+compiled time-step loop: integrate.py, forces.py with the contact law of contact/, walls.py for
+the rings, neighbors.py and rebuild.py for the Verlet lists) -> output/ (snapshots, checkpoints,
+restarts, the in-situ averages, progress). Under MPI: parallel/ (sectors, migration, ghosts,
+gathers; the only place that imports mpi4py). averaging/ turns contacts into ring fields.
 
 Glossary (SI units throughout):
   gid       global particle id (free particles 0..N-1, then wall disks)
@@ -19,9 +20,16 @@ Glossary (SI units throughout):
             of another rank's particle near the sector edge
 """
 
+from importlib.metadata import PackageNotFoundError, version
+
 from .output.snapshots import read_snapshots
 from .scene import Scene, SceneError, load_scene
 from .simulation import Simulation, SimulationError
 
-__all__ = ["Scene", "SceneError", "Simulation", "SimulationError", "load_scene",
+try:
+    __version__ = version("pardem")
+except PackageNotFoundError:  # a source tree on PYTHONPATH, not installed
+    __version__ = "unknown"
+
+__all__ = ["__version__", "Scene", "SceneError", "Simulation", "SimulationError", "load_scene",
            "read_snapshots"]

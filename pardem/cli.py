@@ -1,7 +1,8 @@
 """Command line: ``pardem run SCENE.toml [--out DIR] [--end T] [--restart CHECKPOINT]
 [--overwrite]``,
-``pardem average DIR [...]`` (ring averages from snapshots), ``pardem plot DIR [DIR ...]`` (the
-paper's figures).
+``pardem check SCENE.toml`` (what a scene will do, before it runs), ``pardem average DIR [...]``
+(ring averages from snapshots), ``pardem plot DIR [DIR ...]`` (the paper's figures),
+``pardem --version``.
 
 Stage: entry point. Errors in the user's input (scene, restart file, output folder) print one
 line naming the problem and exit with status 2; a run that becomes invalid exits with status 3.
@@ -22,7 +23,12 @@ from pathlib import Path
 
 
 def main(argv: list[str] | None = None) -> int:
-    parser = argparse.ArgumentParser(prog="pardem", description=__doc__.splitlines()[0])
+    from . import __version__
+
+    parser = argparse.ArgumentParser(
+        prog="pardem", description="pardem: 2D discrete-element simulation of a granular "
+        "Couette shear cell, ring averaging and the paper's figures.")
+    parser.add_argument("--version", action="version", version=f"pardem {__version__}")
     sub = parser.add_subparsers(dest="command", required=True)
     run = sub.add_parser("run", help="run a scene")
     run.add_argument("scene", help="scene file (TOML)")
@@ -33,6 +39,9 @@ def main(argv: list[str] | None = None) -> int:
                      help="replace the run in the output folder (refused otherwise, except a "
                           "restart of the same scene, which continues it)")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    check = sub.add_parser("check", help="print the resolved scene, t_c, dt, volume fraction, "
+                           "steps and an estimated run time (runs nothing)")
+    check.add_argument("scene", help="scene file (TOML)")
     avg = sub.add_parser("average", help="ring-average the snapshots of a run folder")
     avg.add_argument("run_dir", help="run folder (scene.toml + particles.h5)")
     avg.add_argument("--start", type=float, help="s (default: the scene's [averaging] start)")
@@ -52,6 +61,8 @@ def main(argv: list[str] | None = None) -> int:
         return _average(args)
     if args.command == "plot":
         return _plot(args)
+    if args.command == "check":
+        return _check(args)
     t_start = time.perf_counter()
     from .parallel import abort, world
     from .scene import SceneError, load_scene
@@ -93,6 +104,18 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr.flush()
             abort(comm)
         raise
+    return 0
+
+
+def _check(args) -> int:
+    from .check import describe
+    from .scene import SceneError, load_scene
+
+    try:
+        print(describe(load_scene(args.scene)))
+    except SceneError as e:
+        sys.stderr.write(f"pardem: error: {e}\n")
+        return 2
     return 0
 
 

@@ -1,7 +1,8 @@
 """Scene description: the validated input of a pardem run.
 
-Stage: input. ``load_scene`` reads a TOML scene file (layout and key names fixed by SPEC §7) and
-returns a ``Scene`` made of frozen, validated dataclasses; nothing downstream re-checks them.
+Stage: input. ``load_scene`` reads a TOML scene file (every key: docs/input.md, generated from
+here) and returns a ``Scene`` made of frozen, validated dataclasses; nothing downstream
+re-checks them.
 The checks are in ``schema.py`` (``scene_from_dict``; free particles in ``particles_input.py``).
 Every problem raises ``SceneError`` with one message naming the offending ``[table] key``.
 ``scene_to_toml`` / ``write_scene`` write a scene back (the resolved scene stored with a run).

@@ -240,6 +240,14 @@ class Simulation(StateViews):
                      f"{self.n_free} particles, dt = {self.dt:.6g} s, {self.decomp.describe()}")
             if snapshots.trigger.due(self.step):
                 self._timed("snapshots", self.write_snapshot)
+        cfg = self.scene.averaging
+        if self.rings is not None and cfg.end > end and root:  # said, not silently cut short
+            note = (f"note: [averaging] end = {cfg.end:g} s lies past this run's end {end:g} s: "
+                    f"the averages cover {cfg.start:g} s to {end:g} s" if cfg.start < end else
+                    f"note: [averaging] starts at {cfg.start:g} s, after this run's end {end:g} "
+                    "s: no ring averages")
+            self.log(note)
+            sys.stderr.write(f"pardem: {note}\n")
         since = [time.perf_counter(), self.step]  # the last report's wall time and step
         chunk, last_report = 1000, 0.0
         every = 1.0 if progress else (10.0 if self.out_dir is not None else math.inf)

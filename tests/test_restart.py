@@ -140,3 +140,11 @@ def test_end_before_the_checkpoint_is_an_error(tmp_path):
     with pytest.raises(SceneError, match=r"--end 0\.1 s lies before the run's current time "
                                          r"0\.15"):
         again.run(end=0.1, progress=False)
+
+
+def test_averaging_past_the_run_end_is_said(tmp_path, capsys):
+    sim = Simulation(averaged_cell(), out_dir=tmp_path)
+    sim.run(end=0.15, progress=False)
+    note = ("[averaging] end = 0.3 s lies past this run's end 0.15 s: the averages cover "
+            "0.1 s to 0.15 s")
+    assert note in capsys.readouterr().err and note in (tmp_path / "log.txt").read_text()

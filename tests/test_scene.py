@@ -159,6 +159,8 @@ def test_bad_couette_value(path, value, message):
 @pytest.mark.parametrize("changes,message", [
     ({"contact.k_t": 0.0}, "[contact] k_t = 0.0: must be > 0 when [effects] tangential_friction"),
     ({"averaging": {"start": 10.0, "end": 5.0}}, "[averaging] end = 5.0: must be > start = 10.0"),
+    ({"averaging": {"ring_width": 0.2}},
+     "[averaging] ring_width = 0.2: wider than the gap outer_radius - inner_radius = 0.149 m"),
     ({"geometry.outer_radius": 0.108}, "[geometry] outer_radius - inner_radius"),
     ({"species.0.count": 0, "species.1.count": 0}, "total count must be >= 1"),
     ({"geometry.inner_wall_count": 0, "geometry.inner_flat_surface": False},

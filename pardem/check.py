@@ -1,0 +1,64 @@
+"""``pardem check SCENE``: what a scene will do, before it runs (nothing is compiled).
+
+Stage: entry point. Prints the resolved scene (every default filled in), the contact time of
+the stiffest pair, the time step and steps per contact, the global volume fraction, the
+number of steps and particle-steps, and an estimate of the wall time from a reference rate
+(``REFERENCE_RATE``: an order of magnitude, not a promise; the machine and the state of the
+packing change it by a factor of two).
+"""
+
+from __future__ import annotations
+
+import math
+
+from .scene import Scene, scene_to_toml
+from .timestep import resolve_dt, smallest_contact_time
+from .walls import wall_layout
+
+REFERENCE_RATE = 25e6
+"""Particle-steps per second of one rank on couette_B (docs/scaling.md, 2-core machine)."""
+
+
+def volume_fraction(scene: Scene) -> float | None:
+    """Global volume fraction of a couette scene at its final outer radius: free disks plus
+    half of every wall disk, over pi (R_o^2 - R_i^2) (the paper's v-bar); None for free
+    scenes."""
+    g = scene.geometry
+    if g is None:
+        return None
+    disks = sum(s.count * math.pi * s.diameter**2 / 4 for s in scene.species)
+    walls = sum(0.5 * w.count * math.pi * w.diameter**2 / 4
+                for w in (wall_layout(g, "inner"), wall_layout(g, "outer")))
+    return (disks + walls) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
+
+
+def describe(scene: Scene) -> str:
+    """The report ``pardem check`` prints (SceneError if the scene cannot run)."""
+    dt = resolve_dt(scene)  # also refuses ring speeds the contact law cannot follow
+    t_c = smallest_contact_time(scene)
+    n = (sum(s.count for s in scene.species) if scene.particles is None
+         else len(scene.particles))
+    steps = int(round(scene.time.end / dt))
+    work = n * steps
+    lines = [scene_to_toml(scene).rstrip(), "",
+             f"# particles (free): {n}",
+             f"# contact time of the lightest pair t_c = {t_c:.6g} s; dt = {dt:.6g} s "
+             f"= t_c / {t_c / dt:.4g}"]
+    nu = volume_fraction(scene)
+    if nu is not None:
+        lines.append(f"# global volume fraction (free disks + half of each wall disk, at the "
+                     f"final outer radius) = {nu:.4f}")
+    lines.append(f"# {steps} steps to t = {scene.time.end:g} s: {work:.4g} particle-steps, "
+                 f"roughly {_duration(work / REFERENCE_RATE)} on 1 rank, "
+                 f"{_duration(work / REFERENCE_RATE / 1.7)} on 2 (at "
+                 f"{REFERENCE_RATE / 1e6:.0f} M particle-steps/s per rank; plus about a minute "
+                 "of compilation on a first run)")
+    return "\n".join(lines)
+
+
+def _duration(seconds: float) -> str:
+    if seconds < 120:
+        return f"{seconds:.0f} s"
+    if seconds < 7200:
+        return f"{seconds / 60:.0f} min"
+    return f"{seconds / 3600:.1f} h"
