@@ -14,7 +14,7 @@ Stage: averaging output. ``make_figures(runs, out_dir)`` takes runs loaded by
     fig_1_8_couple_stress.png      M_zr/d~^2 and kappa_zr/d~^2 (B)
     fig_1_9_torque_resistance.png  mu_c/k'_n
     check_fabric_trace.png         tr F against nu C (C: contacts per particle)
-    check_torque_balance.png       2 pi h r^2 sigma_phir per ring and the inner-ring torque
+    check_torque_balance.png       2 pi h r^2 sigma_phir per ring over the inner-ring torque
 """
 
 from __future__ import annotations
@@ -35,17 +35,28 @@ FIT_RANGE = (0.25, 8.1)
 
 
 def _style(run: dict, k: int) -> dict:
-    name = run["name"]
-    return {"color": COLOURS.get(name, f"C{k}"), "marker": MARKERS.get(name, "o")}
+    paper = run.get("paper")
+    return {"color": COLOURS.get(paper, f"C{k}"), "marker": MARKERS.get(paper, "o")}
 
 
 def _label(run: dict) -> str:
-    return f"{run['name']} (v̄ = {run['nu_bar']:.4f})"
+    return f"{run['label']} (ν̄ = {run['nu_bar']:.4f})"  # nu-bar: the global volume fraction
 
 
 def _focus(runs: list[dict]) -> dict:
     """The run of the single-simulation figures: B if present (as in the paper)."""
-    return next((r for r in runs if r["name"] == "B"), runs[0])
+    return next((r for r in runs if r.get("paper") == "B"), runs[0])
+
+
+def _r_max(runs: list[dict]) -> float:
+    """The largest r~ of the runs' rings (the outer wall), plus a margin: axes follow the cell."""
+    return 1.03 * max(float(np.nanmax(r["rings"]["r_tilde"])) for r in runs) + 0.2
+
+
+def _fit_r(run: dict, n: int) -> np.ndarray:
+    """r~ of the fit's range (0.25-8.1, the paper's), within the run's cell."""
+    return np.linspace(FIT_RANGE[0], min(FIT_RANGE[1], float(np.nanmax(run["rings"]["r_tilde"]))),
+                       n)
 
 
 def _save(fig, out: Path, name: str) -> Path:
@@ -75,21 +86,20 @@ def volume_fraction(runs, out):
 
 def velocity(runs, out):
     fig, ax = plt.subplots(figsize=(6, 4))
-    r = np.linspace(*FIT_RANGE, 50)
     for k, run in enumerate(runs):
-        f, st = run["rings"], _style(run, k)
+        f, st, r = run["rings"], _style(run, k), _fit_r(run, 50)
         v, e = f["v_phi_norm"], f.get("v_phi_norm_err")
         ok = v > 0
         _errorbar(ax, f["r_tilde"][ok], v[ok], None if e is None else e[ok], run, k)
         v0, s = float(f["fit_v0"]), float(f["fit_s"])
         ax.plot(r, v0 * np.exp(-r / s), "-", color=st["color"],
-                label=f"fit {run['name']}: v₀ = {v0:.3f}, s = {s:.3f}")
-        if run["name"] in PAPER:
-            p = PAPER[run["name"]]
+                label=f"fit {run['label']}: v₀ = {v0:.3f}, s = {s:.3f}")
+        if run.get("paper") in PAPER:
+            p = PAPER[run["paper"]]
             ax.plot(r, p["v0"] * np.exp(-r / p["s"]), ":", color=st["color"],
-                    label=f"paper {run['name']}: v₀ = {p['v0']}, s = {p['s']}")
+                    label=f"paper {run['paper']}: v₀ = {p['v0']}, s = {p['s']}")
     ax.set_yscale("log")
-    ax.set(xlabel="r̃", ylabel="v_φ / (Ω R_i)", xlim=(0, 16), ylim=(1e-4, 2))
+    ax.set(xlabel="r̃", ylabel="v_φ / (Ω R_i)", xlim=(0, _r_max(runs)), ylim=(1e-4, 2))
     ax.legend(fontsize=7)
     return _save(fig, out, "fig_1_3_velocity.png")
 
@@ -106,7 +116,7 @@ def orientation(runs, out):
                     yerr=f.get(f"angle_{t}_err", np.zeros_like(f["r"]))[inner], fmt=fmt, ms=3,
                     lw=0.5, mfc=face, label=label)
     ax.set(xlabel="r̃", ylabel="angle φ of the major eigenvector from e_r (deg)",
-           title=f"simulation {run['name']}")
+           title=f"simulation {run['label']}")
     ax.legend()
     return _save(fig, out, "fig_1_4_orientation.png")
 
@@ -128,7 +138,8 @@ def _against_trace(runs, key, ylabel, line_label):
 
     _markers(ax, runs, xy)
     top = max((float(np.max(xy(r)[0])) for r in runs if xy(r)[0].size), default=0.0)
-    x = np.linspace(0.01 * top, top * 1.05 or 1.0, 50)  # from > 0: log axes in Fig. 1.6
+    low = min((float(np.min(xy(r)[0])) for r in runs if xy(r)[0].size), default=0.0)
+    x = np.array([0.8 * low or 0.01 * top, top * 1.05 or 1.0])  # > 0: log axes in Fig. 1.6
     ax.plot(x, x, "k-", lw=1, label=line_label)
     ax.set(xlabel="tr F", ylabel=ylabel, xlim=(0, x[-1]))
     ax.legend(fontsize=8)
@@ -145,7 +156,9 @@ def stiffness(runs, out):
 def shear_resistance(runs, out):
     fig, ax = _against_trace(runs, "shear_resistance", "πG / k'_n = (π/k'_n) dev σ / dev ε",
                              "identity")
+    ax.set_xscale("log")  # log-log: the identity stays a straight line
     ax.set_yscale("log")
+    ax.set_xlim(ax.get_lines()[-1].get_xdata()[0], None)
     return _save(fig, out, "fig_1_6_shear_resistance.png")
 
 
@@ -161,14 +174,15 @@ def spin(runs, out):
     # W = (dv/dr + v/r)/2 of the fitted profile, dv/dr = -v/(s d~)
     w_fit = 0.5 * v * (1.0 / radius - 1.0 / (float(f["fit_s"]) * run["d_ref"]))
     ax.plot(r, w_fit, ":", color="tab:red", label="W_rφ of the v_φ fit")
-    ax.set(xlabel="r̃", ylabel="angular velocity (rad/s)", xlim=(0, 12),
-           title=f"simulation {run['name']}")
-    ax.legend(loc="upper right", fontsize=8)
+    ax.set(xlabel="r̃", ylabel="angular velocity (rad/s)", xlim=(0, min(12, _r_max([run]))),
+           title=f"simulation {run['label']}")
+    # below the axes: the curves fill the upper left, the inset the lower right
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.16), ncol=3, fontsize=7)
     inset = ax.inset_axes([0.45, 0.25, 0.5, 0.35])
     for k, r_ in enumerate(runs):
         g = r_["rings"]
         inset.plot(g["r_tilde"], g["excess_spin"], "-", lw=0.8, color=_style(r_, k)["color"],
-                   label=r_["name"])
+                   label=r_["label"])
     inset.axhline(0, color="grey", lw=0.5)
     inset.set_xlim(0, 8)
     inset.set_title("excess spin ω* = ω − W_rφ", fontsize=7)
@@ -186,18 +200,24 @@ def couple_stress(runs, out):
                     fmt="o", ms=2.5, lw=0.5)
         ax.axhline(0, color="grey", lw=0.5)
         ax.set(ylabel=label)
-    a.set_title(f"simulation {run['name']}")
-    b.set(xlabel="r̃", xlim=(0, 16))
+    a.set_title(f"simulation {run['label']}")
+    b.set(xlabel="r̃", xlim=(0, _r_max([run])))
     return _save(fig, out, "fig_1_8_couple_stress.png")
 
 
 def torque_resistance(runs, out):
     fig, ax = plt.subplots(figsize=(6, 4))
-    _markers(ax, runs, lambda run: (run["rings"]["r_tilde"],
-                                    run["rings"]["mu_c"] / run["k_n_2d"]), ms=2.5)
-    ax.set(xlabel="r̃", ylabel="torque resistance μ_c / k'_n = M_zr / (k'_n κ_zr)",
-           xlim=(0, 16))
-    ax.set_yscale("symlog", linthresh=1e-3)
+
+    def xy(run):  # mu_c = |M_zr|/|kappa_zr| >= 0; rings with mu_c = 0 or NaN have no log
+        f = run["rings"]
+        mu = f["mu_c"] / run["k_n_2d"]
+        ok = np.isfinite(mu) & (mu > 0)
+        return f["r_tilde"][ok], mu[ok]
+
+    _markers(ax, runs, xy, ms=2.5)
+    ax.set(xlabel="r̃", ylabel="torque resistance μ_c / k'_n = |M_zr| / (k'_n |κ_zr|)",
+           xlim=(0, _r_max(runs)))
+    ax.set_yscale("log")
     ax.legend()
     return _save(fig, out, "fig_1_9_torque_resistance.png")
 
@@ -214,17 +234,21 @@ def fabric_trace(runs, out):
 
 
 def torque_balance(runs, out):
+    """Each run's torque through every ring relative to the torque its inner ring exerts (the
+    runs' torques differ by orders of magnitude): 1 in steady state; the band is the inner
+    ring's relative error."""
     fig, ax = plt.subplots(figsize=(6, 4))
+    ax.axhline(1.0, color="k", lw=0.8)
     for k, run in enumerate(runs):
         f = run["rings"]
         st = _style(run, k)
-        _errorbar(ax, f["r_tilde"], f["shear_torque"], f.get("shear_torque_err"), run, k,
-                  label=f"{run['name']}: 2π h r² σ_φr")
         t, e = float(f["inner_torque"]), float(f.get("inner_torque_err", np.nan))
-        ax.axhspan(t - e, t + e, color=st["color"], alpha=0.25, lw=0)
-        ax.axhline(t, color=st["color"], lw=1,
-                   label=f"{run['name']}: inner ring, from its contacts ({t:.4f} N m)")
-    ax.set(xlabel="r̃", ylabel="torque through the ring (N m)", xlim=(0, 19))
+        err = f.get("shear_torque_err")
+        _errorbar(ax, f["r_tilde"], f["shear_torque"] / t, None if err is None else err / abs(t),
+                  run, k, label=f"{run['label']}: 2π h r² σ_φr / T_inner (T_inner = {t:.3g} N m)")
+        ax.axhspan(1 - e / abs(t), 1 + e / abs(t), color=st["color"], alpha=0.2, lw=0)
+    ax.set(xlabel="r̃", ylabel="torque through the ring / inner-ring torque",
+           xlim=(0, _r_max(runs)), ylim=(-1, 3))
     ax.legend(fontsize=7)
     return _save(fig, out, "check_torque_balance.png")
 

@@ -50,9 +50,16 @@ def global_volume_fraction(scene) -> float:
     return volume_fraction(scene)
 
 
-def load_run(run_dir: str | Path) -> dict:
+PAPER_SCENES = {f"couette-{k}": k for k in PAPER}
+"""The shipped scenes that stand for the paper's simulations (run_scripts/couette_[ABC].toml)."""
+
+
+def load_run(run_dir: str | Path, label: str | None = None, paper: str | None = None) -> dict:
     """Ring fields of a folder with rings.h5 (a run folder, or its offline/ subfolder) plus the
-    run's scene-derived constants (k'_n, h, d~, Omega R_i)."""
+    run's scene-derived constants (k'_n, h, d~, Omega R_i). ``label``: how figures name the run
+    (default: its folder's name); ``paper``: the paper's simulation it stands for ("A", "B",
+    "C"; default: only for the shipped scenes couette-A/B/C), which figures and tables compare
+    it with. ``name`` is ``paper`` if set, else the label."""
     run_dir = Path(run_dir)
     rings = read_rings(run_dir)
     scene_file = run_dir / "scene.toml"
@@ -60,8 +67,11 @@ def load_run(run_dir: str | Path) -> dict:
     c, g = scene.contact, scene.geometry
     d_ref = rings.get("reference_diameter",
                       (rings["r"][1] - rings["r"][0]) / (rings["r_tilde"][1] - rings["r_tilde"][0]))
-    name = scene.info.name.rsplit("-", 1)[-1]
-    return {"dir": run_dir, "name": name, "label": scene.info.name, "rings": rings,
+    paper = paper or PAPER_SCENES.get(scene.info.name)
+    if label is None:
+        label = run_dir.parent.name if run_dir.name == "offline" else run_dir.name
+    return {"dir": run_dir, "name": paper or label, "paper": paper, "label": label,
+            "scene": scene.info.name, "rings": rings,
             "k_n_2d": c.k_n / c.height, "height": c.height, "d_ref": d_ref,
             "wall_speed": g.omega_inner * g.inner_radius, "r_in": g.inner_radius,
             "nu_bar": global_volume_fraction(scene), "n_samples": rings["times"].size,

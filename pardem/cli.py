@@ -55,6 +55,8 @@ def main(argv: list[str] | None = None) -> int:
     plot = sub.add_parser("plot", help="the paper's figures (PNG) from ring averages")
     plot.add_argument("run_dirs", nargs="+", help="run folder(s) with rings.h5 (several: "
                       "one figure set comparing them)")
+    plot.add_argument("--label", nargs="+", help="legend label of each run, in order "
+                      "(default: the run folder's name)")
     plot.add_argument("--out", help="folder for the PNGs (default: RUN_DIR/figures)")
     args = parser.parse_args(argv)
     if args.command == "average":
@@ -142,8 +144,13 @@ def _plot(args) -> int:
     from averaging.plots import make_figures
     from averaging.report import load_run
 
+    labels = args.label or [None] * len(args.run_dirs)
+    if len(labels) != len(args.run_dirs):
+        sys.stderr.write(f"pardem: error: --label: {len(labels)} labels for "
+                         f"{len(args.run_dirs)} run folders\n")
+        return 2
     runs = []
-    for d in args.run_dirs:
+    for d, label in zip(args.run_dirs, labels):
         d = Path(d)
         if not (d / "rings.h5").exists():
             found = d / "offline" / "rings.h5"
@@ -151,9 +158,9 @@ def _plot(args) -> int:
                 sys.stderr.write(f"pardem: error: {d}: no rings.h5 (run a scene with an "
                                  "[averaging] table, or `pardem average` it first)\n")
                 return 2
-            runs.append(load_run(found.parent))
+            runs.append(load_run(found.parent, label=label or d.name))
         else:
-            runs.append(load_run(d))
+            runs.append(load_run(d, label=label))
     out = Path(args.out) if args.out else Path(args.run_dirs[0]) / "figures"
     for path in make_figures(runs, out):
         print(path)

@@ -98,15 +98,15 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--results", type=Path, default=Path("results/paper"))
     ap.add_argument("--runs-info", type=Path)
     ap.add_argument("--names", nargs="+", choices=sorted(PAPER),
-                    help="the paper's simulation each run stands for, in order (default: the "
-                         "scene name after its last hyphen, as in couette-B)")
+                    help="the paper's simulation each run stands for, in order (default: "
+                         "that of the shipped scenes couette-A/B/C)")
     args = ap.parse_args(argv)
     runs = [load_run(d) for d in args.run_dirs]
     if args.names:
         if len(args.names) != len(runs):
             ap.error(f"--names: {len(args.names)} names for {len(runs)} run folders")
         for run, name in zip(runs, args.names):
-            run["name"] = name
+            run["name"] = run["paper"] = run["label"] = name
     out = args.results
     (out / "scenes").mkdir(parents=True, exist_ok=True)
     figures = make_figures(runs, out / "figures")
@@ -116,7 +116,7 @@ def main(argv: list[str] | None = None) -> int:
     (out / "comparison.json").write_text(json.dumps({"ours": m, "paper": PAPER, "runs": info},
                                                     indent=2))
     for r in runs:
-        shutil.copy(r["dir"] / "scene.toml", out / "scenes" / f"{r['label']}.toml")
+        shutil.copy(r["dir"] / "scene.toml", out / "scenes" / f"{r['scene']}.toml")
     for p in figures:
         print(p)
     print(out / "comparison.md")

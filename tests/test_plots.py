@@ -98,3 +98,27 @@ def test_paper_figures_script_writes_figures_table_and_json(small_run, tmp_path)
     assert all(isinstance(v, float) for v in data["ours"][name].values())  # NaN allowed:
     # a quantity the short run cannot measure (here the bulk volume fraction) is NaN, not absent
     assert len(list((tmp_path / "scenes").glob("*.toml"))) == 1
+
+
+def test_runs_are_labelled_by_folder_and_compared_with_the_paper_only_when_they_are_its_scenes(
+        small_run, tmp_path):
+    """Two folders of one scene get their own labels; a scene merely named like the paper's
+    ("my-B") is not compared with the paper's B; the shipped couette-B is."""
+    import shutil
+
+    other = tmp_path / "second"
+    shutil.copytree(small_run, other)
+    a, b = load_run(small_run), load_run(other)
+    assert (a["label"], b["label"]) == ("run", "second") and a["paper"] is None
+    assert load_run(small_run, label="dense")["label"] == "dense"
+    scene = load_scene(small_run / "scene.toml")
+    for name, paper in (("my-B", None), ("couette-B", "B")):
+        renamed = tmp_path / name
+        shutil.copytree(small_run, renamed)
+        text = (renamed / "scene.toml").read_text().replace(
+            f'name = "{scene.info.name}"', f'name = "{name}"')
+        (renamed / "scene.toml").write_text(text)
+        assert load_run(renamed)["paper"] == paper, name
+    assert main(["plot", str(small_run), str(other), "--label", "one", "two", "--out",
+                 str(tmp_path / "f")]) == 0
+    assert main(["plot", str(small_run), "--label", "a", "b"]) == 2
