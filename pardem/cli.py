@@ -2,7 +2,7 @@
 [--overwrite]``,
 ``pardem check SCENE.toml`` (what a scene will do, before it runs), ``pardem average DIR [...]``
 (ring averages from snapshots), ``pardem plot DIR [DIR ...]`` (the paper's figures),
-``pardem --version``.
+``pardem render DIR`` (pictures), ``pardem --version``.
 
 Stage: entry point. Errors in the user's input (scene, restart file, output folder) print one
 line naming the problem and exit with status 2; a run that becomes invalid exits with status 3.
@@ -58,7 +58,25 @@ def main(argv: list[str] | None = None) -> int:
     plot.add_argument("--label", nargs="+", help="legend label of each run, in order "
                       "(default: the run folder's name)")
     plot.add_argument("--out", help="folder for the PNGs (default: RUN_DIR/figures)")
+    pictures = sub.add_parser("render", help="PNG pictures of a run folder: disks, force "
+                              "chains, ring fields (needs pyvista: the viz extra)")
+    pictures.add_argument("run_dir", type=Path)
+    pictures.add_argument("--snapshot", type=int, default=-1,
+                          help="index in time order (default: the last)")
+    pictures.add_argument("--color", choices=["speed", "spin"], default="speed")
+    pictures.add_argument("--fields", nargs="*", default=["nu", "v_phi", "tr_sigma", "mu_c"],
+                          help="ring fields to draw (rings.vtu)")
+    pictures.add_argument("--size", type=int, default=1200, help="image height (pixels)")
+    pictures.add_argument("--out", type=Path, help="default RUN_DIR/figures")
     args = parser.parse_args(argv)
+    if args.command == "render":
+        try:  # pyvista (VTK) only here: every other command starts without it
+            from .render import render
+        except ImportError as e:
+            sys.stderr.write(f"pardem: error: pardem render needs pyvista ({e}); install it "
+                             "with: pip install -e \".[viz]\"\n")
+            return 2
+        return render(args)
     if args.command == "average":
         return _average(args)
     if args.command == "plot":

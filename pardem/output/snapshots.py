@@ -86,7 +86,8 @@ def write_snapshot(out_dir: str | os.PathLike, index: int, time: float, step: in
     xdmf.append(out_dir, xdmf.PARTICLES, index, xdmf.particle_grid(FILE, index, time, parts))
     if contacts is not None:
         xdmf.append(out_dir, xdmf.CONTACTS, index,
-                    xdmf.contact_grid(FILE, index, time, parts, links))
+                    xdmf.contact_grid(FILE, index, time, parts, links)
+                    if contacts["ids"].shape[0] else None)
 
 
 def _write_table(group: h5py.Group, table: dict[str, np.ndarray]) -> xdmf.Arrays:

@@ -54,14 +54,18 @@ def contact_grid(h5_name: str, index: int, time: float, particle_arrays: Arrays,
                  {"position": particle_arrays["position"], **arrays}, "Cell")
 
 
-def append(out_dir: Path, kind: str, index: int, grid: str) -> None:
-    """Add one snapshot's grid to ``kind``.xdmf, dropping grids of index >= ``index``."""
+def append(out_dir: Path, kind: str, index: int, grid: str | None) -> None:
+    """Add one snapshot's grid to ``kind``.xdmf, dropping grids of index >= ``index``. A grid
+    of None (a snapshot without contacts) only drops: XDMF readers fail on a topology of zero
+    cells (pyvista: "Failed to read data"), so an empty network is left out of the index."""
     path = out_dir / f"{kind}.xdmf"
+    if grid is None and not path.exists():
+        return
     text = path.read_text() if path.exists() else _HEAD.format(kind) + _TAIL
     last = text.rfind(f'<Grid Name="{kind}_')
     if last >= 0 and int(text[last + len(kind) + 13:].split('"', 1)[0]) >= index:
         text = _HEAD.format(kind) + "".join(g for i, g in _grids(text, kind) if i < index) + _TAIL
-    _write_atomic(path, text[:-len(_TAIL)] + grid + _TAIL)
+    _write_atomic(path, text[:-len(_TAIL)] + (grid or "") + _TAIL)
 
 
 def rebuild(h5: h5py.File, out_dir: Path, h5_name: str) -> None:
@@ -73,7 +77,7 @@ def rebuild(h5: h5py.File, out_dir: Path, h5_name: str) -> None:
         time, index = float(g.attrs["time"]), int(name)
         parts = _shapes(g)
         particles.append(particle_grid(h5_name, index, time, parts))
-        if "contacts" in g:
+        if "contacts" in g and g["contacts"]["cells"].shape[0]:  # no empty grids (append)
             contacts.append(contact_grid(h5_name, index, time, parts, _shapes(g["contacts"])))
     for kind, grids in ((PARTICLES, particles), (CONTACTS, contacts)):
         if grids:
