@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from pardem.output.averages import ring_width as default_ring_width
 from pardem.output.snapshots import read_snapshots
 from pardem.scene import SceneError, load_scene
 from pardem.output.writers import sample_steps
@@ -34,7 +35,7 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
         raise SceneError(f"{run_dir}: ring averaging needs a couette scene")
     start = start if start is not None else (cfg.start if cfg else 0.0)
     end = end if end is not None else (cfg.end if cfg else float("inf"))
-    ring_width = ring_width or (cfg.ring_width if cfg else 0.9275e-3)
+    ring_width = ring_width or default_ring_width(scene)
     weighting = weighting or (cfg.weighting if cfg else "slice")
     displacement = displacement or (cfg.displacement if cfg else "eta")
     dt = resolve_dt(scene)

@@ -46,7 +46,7 @@ def main(argv: list[str] | None = None) -> int:
     avg.add_argument("run_dir", help="run folder (scene.toml + particles.h5)")
     avg.add_argument("--start", type=float, help="s (default: the scene's [averaging] start)")
     avg.add_argument("--end", type=float, help="s (default: the scene's [averaging] end)")
-    avg.add_argument("--ring-width", type=float, help="m (default: the scene's, or d_small/8)")
+    avg.add_argument("--ring-width", type=float, help="m (default: the scene's, or the smallest free diameter / 8)")
     avg.add_argument("--weighting", choices=["slice", "exact", "centre", "gaussian"])
     avg.add_argument("--displacement", choices=["eta", "spring"],
                      help="tangential part of the contact displacement in eps and kappa: the "

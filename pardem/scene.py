@@ -199,7 +199,8 @@ class OutputCfg:
 @dataclass(frozen=True)
 class AveragingCfg:
     """``[averaging]`` (optional; in-situ ring averaging): start (s, 180.0), end (s, 239.0),
-    sample_interval (s, 0.1), ring_width (m, 0.9275e-3 = d_small/8), weighting ("slice" (the
+    sample_interval (s, 0.1), ring_width (m; "auto" = None: the smallest free-particle diameter
+    / 8, the paper's choice), weighting ("slice" (the
     paper's) | "exact" | "centre" | "gaussian", see averaging/weights.py; default "slice"),
     reference_diameter (m, the d~ of r~ = (r - R_i)/d~ and of the
     v_phi decay length; "auto" = None: the mean free-particle diameter; the paper's scenes
@@ -212,7 +213,7 @@ class AveragingCfg:
     start: float = key(180.0, "s", ">=0")
     end: float = key(239.0, "s")
     sample_interval: float = key(0.1, "s", ">0")
-    ring_width: float = key(0.9275e-3, "m", ">0")
+    ring_width: float | None = key(None, "m", ">0")
     weighting: str = key("slice", rule="slice|exact|centre|gaussian")
     reference_diameter: float | None = key(None, "m", ">0")
     displacement: str = key("eta", rule="eta|spring")
@@ -267,9 +268,8 @@ class Scene:
         d["neighbors"] = {"skin": "auto" if self.neighbors.skin is None else self.neighbors.skin}
         d["output"] = dataclasses.asdict(self.output)
         if self.averaging is not None:
-            a = dataclasses.asdict(self.averaging)
-            d["averaging"] = {**a, "reference_diameter": "auto" if a["reference_diameter"] is None
-                              else a["reference_diameter"]}
+            d["averaging"] = {k: "auto" if v is None else v
+                              for k, v in dataclasses.asdict(self.averaging).items()}
         return d
 
     def fingerprint(self) -> str:

@@ -107,7 +107,7 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
         species = _species(_table_list(d["species"], "species"))
         geometry = _geometry(_parse(d.get("geometry", {}), "geometry", "[geometry]"), species)
         gap = geometry.outer_radius - geometry.inner_radius
-        if averaging is not None and averaging.ring_width > gap:
+        if averaging is not None and (averaging.ring_width or 0.0) > gap:
             raise fail("[averaging]", "ring_width", averaging.ring_width,
                        f"wider than the gap outer_radius - inner_radius = {gap:.6g} m", "m")
     else:

@@ -39,8 +39,16 @@ def make_averager(scene, free_radii: np.ndarray, reducer):
     from averaging.timeavg import RingAverager  # averaging builds on pardem
 
     d_ref = cfg.reference_diameter or 2.0 * float(np.mean(free_radii))
-    return RingAverager(g.inner_radius, g.outer_radius, cfg.ring_width, cfg.weighting,
+    return RingAverager(g.inner_radius, g.outer_radius, ring_width(scene), cfg.weighting,
                         scene.contact.height, d_ref, scene.contact.k_n, g.omega_inner, reducer)
+
+
+def ring_width(scene) -> float:
+    """[averaging] ring_width (m), "auto": the smallest free-particle diameter / 8 (the
+    paper's d_small/8)."""
+    cfg = scene.averaging
+    return (cfg.ring_width if cfg is not None and cfg.ring_width is not None
+            else scene.min_free_diameter / 8.0)
 
 
 def sample_grid(scene, dt: float) -> np.ndarray:
