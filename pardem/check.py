@@ -13,7 +13,7 @@ import math
 
 from .scene import Scene, scene_to_toml
 from .timestep import resolve_dt, smallest_contact_time
-from .walls import wall_layout
+from .walls import wall_area_share
 
 REFERENCE_RATE = 25e6
 """Particle-steps per second of one rank on couette_B (docs/scaling.md, 2-core machine)."""
@@ -27,9 +27,7 @@ def volume_fraction(scene: Scene) -> float | None:
     if g is None:
         return None
     disks = sum(s.count * math.pi * s.diameter**2 / 4 for s in scene.species)
-    walls = sum(0.5 * w.count * math.pi * w.diameter**2 / 4
-                for w in (wall_layout(g, "inner"), wall_layout(g, "outer")))
-    return (disks + walls) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
+    return (disks + wall_area_share(g)) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
 
 
 def describe(scene: Scene) -> str:

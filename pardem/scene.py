@@ -60,7 +60,13 @@ class Geometry:
     wall_particle_diameter), ``*_flat_surface`` (true: the flat ring surface behind the
     disks is a contact surface too; false: only the disks are). Disks may overlap (spacing
     below their diameter). The outer ring's disks sit on its final radius's spacing and move
-    radially with it during the compression."""
+    radially with it during the compression.
+
+    ``volume_fraction`` ("auto" = None: the species' counts decide): fill the cell to this
+    global volume fraction (free disks plus half of each wall disk, over pi (R_o^2 - R_i^2),
+    the paper's v-bar); the species then give ``share`` instead of ``count``, and the counts
+    are the nearest integers to share / sum(shares) x the number of disks that reach it. The
+    resolved scene (``pardem check``, DIR/scene.toml) holds the counts."""
 
     inner_radius: float = key(0.1035, "m", ">0")
     outer_radius: float = key(0.2525, "m")
@@ -75,17 +81,21 @@ class Geometry:
     outer_wall_diameter: float | None = key(None, "m", ">0")
     inner_flat_surface: bool = key(True)
     outer_flat_surface: bool = key(True)
+    volume_fraction: float | None = key(None, "", ">0")
 
 
 @dataclass(frozen=True)
 class Species:
-    """``[[species]]`` (couette only): name (unique), diameter (m), mass (kg), count (>= 0);
-    all required."""
+    """``[[species]]`` (couette only): name (unique), diameter (m), mass (kg), count (>= 0),
+    all required; or, with ``[geometry] volume_fraction``, ``share`` (> 0, the species' part
+    of the disks by number, in any unit: 2545 and 394 as well as 0.866 and 0.134) instead of
+    ``count``."""
 
     name: str = key()
     diameter: float = key(unit="m", rule=">0")
     mass: float = key(unit="kg", rule=">0")
-    count: int = key(rule=">=0")
+    count: int | None = key(None, rule=">=0")
+    share: float | None = key(None, rule=">0")
 
 
 _PCOLS = ("x", "y", "vx", "vy", "omega", "diameter", "mass")
@@ -257,7 +267,8 @@ class Scene:
         if self.geometry is not None:
             d["geometry"] = {k: "auto" if v is None else v
                              for k, v in dataclasses.asdict(self.geometry).items()}
-            d["species"] = [dataclasses.asdict(s) for s in self.species]
+            d["species"] = [{k: v for k, v in dataclasses.asdict(s).items() if k != "share"}
+                            for s in self.species]  # resolved: counts, no shares
         if self.particles is not None:
             cols = [getattr(self.particles, k).tolist() for k in _PCOLS]
             d["particles"] = [dict(zip(_PCOLS, row)) for row in zip(*cols)]
@@ -294,7 +305,8 @@ _LATER = {("time", "integrator"): "verlet",
              for key, default in (("wall_count", "auto"), ("wall_diameter", "auto"),
                                   ("flat_surface", True))},
           ("effects", "tangential_damping"): False, ("effects", "rolling_resistance"): False,
-          ("contact", "gamma_t"): 0.0, ("contact", "k_r"): 0.0, ("contact", "mu_r"): 0.0}
+          ("contact", "gamma_t"): 0.0, ("contact", "k_r"): 0.0, ("contact", "mu_r"): 0.0,
+          ("geometry", "volume_fraction"): "auto"}
 """Keys added after the first release, with their defaults (see Scene.fingerprint)."""
 
 

@@ -105,7 +105,9 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
         if "species" not in d:
             raise SceneError("[[species]] missing: a couette scene needs at least one species")
         species = _species(_table_list(d["species"], "species"))
-        geometry = _geometry(_parse(d.get("geometry", {}), "geometry", "[geometry]"), species)
+        g = _parse(d.get("geometry", {}), "geometry", "[geometry]")
+        _check_counts(species, g["volume_fraction"] is not None)
+        species, geometry = _counts(species, _geometry(g, species))
         gap = geometry.outer_radius - geometry.inner_radius
         if averaging is not None and (averaging.ring_width or 0.0) > gap:
             raise fail("[averaging]", "ring_width", averaging.ring_width,
@@ -139,9 +141,46 @@ def _species(rows: list[Any]) -> tuple[Species, ...]:
         if s.name in seen:
             raise fail(f"[[species]] #{i}", "name", s.name, "duplicate species name")
         seen.add(s.name)
-    if sum(s.count for s in out) < 1:
-        raise SceneError("[[species]] count: total count must be >= 1")
     return out
+
+
+def _check_counts(species: tuple[Species, ...], filling: bool) -> None:
+    """A count per species, or with [geometry] volume_fraction (``filling``) a share."""
+    for i, s in enumerate(species):
+        if filling and s.count is not None:
+            raise fail(f"[[species]] #{i}", "count", s.count, "not allowed with [geometry] "
+                       "volume_fraction (give share, the species' part by number)")
+        if filling and s.share is None:
+            raise SceneError(f"[[species]] #{i} share: missing (required with [geometry] "
+                             "volume_fraction)")
+        if not filling and s.share is not None:
+            raise fail(f"[[species]] #{i}", "share", s.share, "needs [geometry] "
+                       "volume_fraction (without it, give count)")
+        if not filling and s.count is None:
+            raise SceneError(f"[[species]] #{i} count: missing (required, or [geometry] "
+                             "volume_fraction with a share per species)")
+
+
+def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, ...], Geometry]:
+    """Every species' count: given, or from [geometry] volume_fraction and the shares (the
+    resolved scene keeps the counts and drops the fraction and shares)."""
+    if g.volume_fraction is not None:
+        from .walls import wall_area_share
+
+        area = math.pi * (g.outer_radius**2 - g.inner_radius**2)
+        walls = wall_area_share(g)
+        total = sum(s.share for s in species)
+        per_disk = sum(s.share / total * math.pi * s.diameter**2 / 4 for s in species)
+        n = (g.volume_fraction * area - walls) / per_disk
+        if n < 1:
+            raise fail("[geometry]", "volume_fraction", g.volume_fraction,
+                       f"the wall disks alone fill {walls / area:.4f} of the cell")
+        species = tuple(dataclasses.replace(s, count=int(round(s.share / total * n)), share=None)
+                        for s in species)
+        g = dataclasses.replace(g, volume_fraction=None)
+    if sum(s.count for s in species) < 1:
+        raise SceneError("[[species]] count: total count must be >= 1")
+    return species, g
 
 
 def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
@@ -160,7 +199,9 @@ def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
     geometry = Geometry(**g)
     from .walls import check_layout  # walls builds on scene types; imported here, not at the top
 
-    small = min(s.diameter for s in species if s.count > 0)
+    small = min((s.diameter for s in species if (s.count or 0) > 0 or s.share), default=None)
+    if small is None:
+        raise SceneError("[[species]] count: total count must be >= 1")
     for ring in ("inner", "outer"):
         why = check_layout(geometry, ring, small)
         if why is not None:

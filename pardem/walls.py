@@ -133,6 +133,12 @@ def wall_layout(g, ring: str) -> WallLayout:
     return WallLayout(count, diameter, getattr(g, f"{ring}_flat_surface"), radius)
 
 
+def wall_area_share(g) -> float:
+    """Area (m^2) the wall disks add to the paper's global volume fraction: half of each."""
+    return sum(0.5 * w.count * math.pi * w.diameter**2 / 4
+               for w in (wall_layout(g, "inner"), wall_layout(g, "outer")))
+
+
 def check_layout(g, ring: str, smallest_free: float):
     """Why ring's layout cannot hold the free disks (smallest diameter ``smallest_free``, m),
     as ``(key, value, reason)``, or None if it can. Without the flat surface the disks alone
