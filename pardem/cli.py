@@ -2,7 +2,8 @@
 [--overwrite]``,
 ``pardem check SCENE.toml`` (what a scene will do, before it runs), ``pardem average DIR [...]``
 (ring averages from snapshots), ``pardem plot DIR [DIR ...]`` (the paper's figures),
-``pardem render DIR`` (pictures), ``pardem --version``.
+``pardem render DIR`` (pictures), ``pardem warmup SCENE...`` (compile the kernels ahead of a
+run), ``pardem --version``.
 
 Stage: entry point. Errors in the user's input (scene, restart file, output folder) print one
 line naming the problem and exit with status 2; a run that becomes invalid exits with status 3.
@@ -39,6 +40,9 @@ def main(argv: list[str] | None = None) -> int:
                      help="replace the run in the output folder (refused otherwise, except a "
                           "restart of the same scene, which continues it)")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    warm = sub.add_parser("warmup", help="compile (and cache) the kernels of scenes' sets of "
+                          "effects now, e.g. before a batch job, so that their runs start at once")
+    warm.add_argument("scenes", nargs="+", help="scene files (TOML)")
     check = sub.add_parser("check", help="print the resolved scene, t_c, dt, volume fraction, "
                            "steps and an estimated run time (runs nothing)")
     check.add_argument("scene", help="scene file (TOML)")
@@ -83,6 +87,8 @@ def main(argv: list[str] | None = None) -> int:
         return _plot(args)
     if args.command == "check":
         return _check(args)
+    if args.command == "warmup":
+        return _warmup(args)
     t_start = time.perf_counter()
     from .parallel import abort, world
     from .scene import SceneError, load_scene
@@ -124,6 +130,34 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr.flush()
             abort(comm)
         raise
+    return 0
+
+
+def _warmup(args) -> int:
+    """A few steps of each scene with every writer on, in a scratch folder: numba compiles what
+    a run of that scene needs and caches it on disk (~/.cache/pardem/numba)."""
+    import dataclasses
+    import tempfile
+
+    from .scene import SceneError, load_scene
+    from .simulation import Simulation
+
+    for path in args.scenes:
+        t0 = time.perf_counter()
+        try:
+            scene = load_scene(path)
+        except SceneError as e:
+            sys.stderr.write(f"pardem: error: {e}\n")
+            return 2
+        with tempfile.TemporaryDirectory() as tmp:
+            sim = Simulation(scene, out_dir=tmp)
+            dt = sim.dt  # every writer fires within the first steps
+            averaging = scene.averaging and dataclasses.replace(
+                scene.averaging, start=0.0, end=4 * dt, sample_interval=2 * dt)
+            sim.scene = dataclasses.replace(scene, averaging=averaging, output=dataclasses.replace(
+                scene.output, snapshot_interval=2 * dt, checkpoint_interval=2 * dt))
+            sim.run(end=4 * dt, progress=False)
+        print(f"{path}: kernels ready in {time.perf_counter() - t0:.1f} s")
     return 0
 
 

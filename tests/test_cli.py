@@ -134,3 +134,12 @@ def test_restart_from_a_folder_without_checkpoint_is_refused(tmp_path, capsys):
     assert main(["run", str(SCENES / "two_small.toml"), "--out", str(tmp_path / "o"),
                  "--restart", str(tmp_path)]) == 2
     assert f"--restart {tmp_path}: a folder without checkpoint.h5" in capsys.readouterr().err
+
+
+def test_warmup_runs_every_writer_of_a_scene(capsys):
+    """pardem warmup compiles what a run of the scene needs (the kernels, the output, the
+    ring averages) in a scratch folder and says how long it took."""
+    scene = Path(__file__).parents[1] / "examples" / "small_dilute.toml"
+    assert main(["warmup", str(scene)]) == 0
+    out, err = capsys.readouterr()
+    assert "small_dilute.toml: kernels ready in" in out and "note" not in err
