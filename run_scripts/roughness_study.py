@@ -441,6 +441,7 @@ def write_report(runs: Path) -> None:
             lines.append(f"The admitted layouts' v₀ range from {min(v0s):.3f} to {max(v0s):.3f} "
                          f"and bracket the paper's {PAPER['B']['v0']}: the paper's description "
                          "of its walls does not determine v₀.")
+        lines += picked_section(chosen)
     else:
         lines += ["", "The layout runs are not all finished; the rule is applied when they are."]
     lines += ["", "## What the contact displacement Δ changes", ""]
@@ -531,6 +532,31 @@ CLAIMS = {
                          "neither bottom nor tangential friction"),
     "claim-noshear": ({"geometry": {"omega_inner": 0.0}}, "Ω = 0 (no shear)"),
 }
+
+
+PICKED_MEASURES = [("fit_v0", "v₀ (log fit)", 3), ("fit_s", "s (log fit)", 3),
+                   ("first_layer_speed", "v_φ/(Ωr), disks touching the inner ring", 3),
+                   ("dilation_deficit", "dilation ν(10–15) − ν(1–4)", 4),
+                   ("trF_bulk", "tr F at 10 ≤ r̃ ≤ 15", 3),
+                   ("contacts_per_disk_bulk", "contacts per disk at 10 ≤ r̃ ≤ 15", 3),
+                   ("stiffness_excess", "(2πĒ/k'_n)/tr F − 1 at 1 ≤ r̃ ≤ 15 (ε with η)", 3),
+                   ("mu_c_outer", "μ_c/k'_n, median at 4 ≤ r̃ ≤ 15", 4)]
+
+
+def picked_section(chosen: str) -> list[str]:
+    """The picked layout on simulations A, B and C: seed mean ± standard error."""
+    rows = {sim: rows_of(f"{chosen}-{sim}") for sim in ("A", "B", "C")}
+    out = ["", "## The picked layout on A, B and C", "",
+           f"`{chosen}`, the full protocol; seed mean ± standard error of that mean (a single "
+           "value where one seed has finished).", "",
+           "| measure | A | B | C |", "|---|---|---|---|"]
+    for key, label, digits in PICKED_MEASURES:
+        out.append(f"| {label.replace('|', chr(92) + '|')} | "
+                   + " | ".join(fmt(rows[sim], key, digits) for sim in rows) + " |")
+    out.append("| seeds finished | " + " | ".join(str(len(r)) for r in rows.values()) + " |")
+    out.append("| the paper's v₀ / s | " + " | ".join(
+        f"{PAPER[sim]['v0']} / {PAPER[sim]['s']}" for sim in rows) + " |")
+    return out
 
 
 def claims_section() -> list[str]:
