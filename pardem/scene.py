@@ -288,6 +288,13 @@ class Scene:
         [averaging], which may legitimately change on a restart, and without keys added since
         the first release while they hold their default (``_LATER``), so that older
         checkpoints stay restartable."""
+        text = json.dumps(self.physics(), sort_keys=True, separators=(",", ":"),
+                          allow_nan=False)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+    def physics(self) -> dict:
+        """What the fingerprint covers, as a dict in the TOML layout (checkpoints keep it, so
+        that a refused restart can name the keys that differ)."""
         d = self.to_dict()
         d["scene"].pop("name")
         d["time"].pop("end")
@@ -296,8 +303,22 @@ class Scene:
                 d[table].pop(key)
         d.pop("output")
         d.pop("averaging", None)
-        text = json.dumps(d, sort_keys=True, separators=(",", ":"), allow_nan=False)
-        return hashlib.sha256(text.encode()).hexdigest()
+        return d
+
+
+def physics_differences(ours: dict, theirs: dict) -> list[str]:
+    """``[table] key: theirs -> ours`` for every key where two ``Scene.physics()`` differ
+    (lists of tables, such as [[species]] and [[particles]], compared whole)."""
+    out = []
+    for table in sorted(set(ours) | set(theirs)):
+        a, b = ours.get(table), theirs.get(table)
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += [f"[{table}] {k}: {b.get(k, '(absent)')!r} in the checkpoint, "
+                    f"{a.get(k, '(absent)')!r} here"
+                    for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+        elif a != b:
+            out.append(f"[[{table}]] differ" if isinstance(a or b, list) else f"[{table}] differs")
+    return out
 
 
 _LATER = {("time", "integrator"): "verlet",

@@ -64,7 +64,8 @@ def test_contacts_right_after_a_restart_report_the_applied_forces(tmp_path):
 def test_restart_of_a_different_scene_is_refused(tmp_path):
     sim = Simulation(small_cell(), out_dir=tmp_path)
     sim.write_checkpoint(tmp_path / "c.h5")
-    with pytest.raises(SceneError, match="different scene"):
+    with pytest.raises(SceneError, match=r"different scene: \[geometry\] omega_inner: 1\.0 in "
+                                         r"the checkpoint, 2\.0 here"):
         Simulation(small_cell(omega_inner=2.0), restart=tmp_path / "c.h5")
 
 

@@ -11,10 +11,12 @@ bit, on any number of ranks, and so do its averages.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
 from ..contact.history import merge_history
-from ..scene import SceneError
+from ..scene import SceneError, physics_differences
 from ..state import FREE
 from .averages import ARRAYS as AVERAGE_ARRAYS
 from .averages import checkpoint_part
@@ -61,6 +63,7 @@ def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
     attrs = {"step": int(sim.clock.step[0]), "time": sim.time, "dt": sim.dt,
              "ring_angle": sim.prm.rings.omega_in * sim.time,
              "fingerprint": sim.scene.fingerprint(), "n_free": sim.n_free, "ranks": d.size,
+             "scene_physics": json.dumps(sim.scene.physics(), sort_keys=True),
              "history_columns": ",".join(sim.history_columns)}
     if sim.rings is not None:
         rings, layout = checkpoint_part(sim.rings, sim.scene)
@@ -78,8 +81,12 @@ def restore(path, ps, scene, dt: float, columns: tuple[str, ...], decomp, log):
     ``averages.resume``). SceneError if the checkpoint belongs to another scene or is damaged."""
     arrays, attrs = decomp.bcast_call(load_checkpoint, path)
     if attrs["fingerprint"] != scene.fingerprint():
-        raise SceneError(f"--restart {path}: the checkpoint belongs to a different scene "
-                         "(geometry, particles, contact law, effects or dt differ)")
+        differ = (physics_differences(scene.physics(), json.loads(attrs["scene_physics"]))
+                  if "scene_physics" in attrs else [])
+        raise SceneError(f"--restart {path}: the checkpoint belongs to a different scene: "
+                         + ("; ".join(differ[:5]) + (" ..." if len(differ) > 5 else "")
+                            if differ else "geometry, particles, contact law, effects or dt "
+                            "differ (a checkpoint of an older pardem does not say which)"))
     if attrs["dt"] != dt:
         raise SceneError(f"--restart {path}: checkpoint dt = {attrs['dt']} s differs from "
                          f"the scene's dt = {dt} s")
