@@ -275,3 +275,22 @@ def test_pardem_render_of_a_free_scene(tmp_path):
                           capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert sorted(p.name for p in (tmp_path / "pics").glob("*.png"))[0].endswith("_forces.png")
+
+
+@pytest.mark.parametrize("end_step, last", [(401, 400), (410, 410)])
+def test_one_end_snapshot(tmp_path, end_step, last):
+    """Snapshots every 200 steps: a run ending one step after the grid's last snapshot does
+    not store a second one a step later (the checkpoint holds the end state); one ending 10
+    steps (5 % of the interval) after it does."""
+    import dataclasses
+
+    scene = pardem.load_scene(ROOT / "tests" / "scenes" / "two_small.toml")
+    dt = Simulation(scene).dt
+    scene = dataclasses.replace(scene, output=dataclasses.replace(
+        scene.output, snapshot_interval=200 * dt, checkpoint_interval=1.0))
+    sim = Simulation(scene, out_dir=tmp_path)
+    sim.run(end=end_step * dt, progress=False)
+    steps = [s["step"] for s in pardem.read_snapshots(tmp_path)]
+    assert steps == [0, 200, 400] + ([last] if last != 400 else [])
+    with h5py.File(tmp_path / "checkpoint.h5") as h5:
+        assert h5.attrs["step"] == end_step
