@@ -162,7 +162,7 @@ class Study:
             res.append(c)
             rows.append([f"{s} d", c["pairs"], c["rebuilds_per_1000"], 1e6 * c["step_s"],
                          c["mps"]])
-        self.md += ["## 3. Neighbour skin", "",
+        self.md += ["## 2. Neighbour skin", "",
                     "Verlet-list skin in small-particle diameters, on the compressed paper cell "
                     "(one core): listed pairs, neighbour builds per 1000 steps, time per step "
                     "(all stages) and flow-particle-steps per second.", ""]
@@ -192,7 +192,7 @@ class Study:
                                           "cost": c["cost"]}
                 rows.append([w, f"d/{1 / frac:.3g}" if frac < 1 else f"{frac:g} d", bias,
                              depart, noise, 1e3 * c["cost"]])
-        self.md += ["## 4. Ring averaging: width × weighting", "",
+        self.md += ["## 3. Ring averaging: width × weighting", "",
                     f"ν from {g['samples']} snapshots of `{run}` (t = {g['window'][0]:.0f}–"
                     f"{g['window'][1]:.0f} s), d = d_small. *bias*: RMS difference from the "
                     "exact disk–ring overlap at the same width (what the weighting itself "
@@ -221,7 +221,7 @@ class Study:
     # -- 5: sampling -----------------------------------------------------------------------------
     def sampling(self, run: Path):
         s = am.sampling(run, self.p["intervals"])
-        self.md += ["## 5. Sampling interval and number of samples", "",
+        self.md += ["## 4. Sampling interval and number of samples", "",
                     f"From the in-situ samples of `{run}` ({s['n']} samples every {s['dt']:.3g} s"
                     f", T = {s['T']:.3g} s): v_φ/(ΩR_i) of the shear zone (1 ≤ r̃ ≤ 3) and tr σ "
                     "of the bulk (5 ≤ r̃ ≤ 15). τ is the integrated autocorrelation time; the "
@@ -254,7 +254,7 @@ class Study:
         med = am.throughput_by_ranks(p["ranks"], p["rank_steps"], p["repeats"])
         rows = [[r, m / 1e6, m / med[1] if 1 in med else math.nan,
                  "yes" if r > 2 else "no"] for r, m in med.items()]
-        self.md += ["## 6. Ranks", "",
+        self.md += ["## 5. Ranks", "",
                     "couette_B after compression, `run_scripts/bench.py` (median of "
                     f"{p['repeats']} runs of {p['rank_steps']} steps); this machine has 2 cores, "
                     "so 3 and 4 ranks are oversubscribed (correctness only).", ""]

@@ -1,6 +1,6 @@
 """The accuracy study's short version (tiny inputs, about half a minute), so the script behind
 docs/accuracy.md cannot rot: every section but the ranks table (the quick settings run no
-MPI benchmark; section 6 comes from run_scripts/bench.py, which the MPI tests cover) runs and
+MPI benchmark; section 5 comes from run_scripts/bench.py, which the MPI tests cover) runs and
 writes finite numbers and its plots."""
 
 import re
@@ -21,7 +21,7 @@ def test_quick_accuracy_study_writes_every_section(tmp_path):
                                 "--out", str(tmp_path)]) == 0
     text = (tmp_path / "accuracy.md").read_text()
     for title in ("## 0. Defaults and why", "## 1. Time step and integrator",
-                  "## 3. Neighbour skin", "## 4. Ring averaging", "## 5. Sampling interval"):
+                  "## 2. Neighbour skin", "## 3. Ring averaging", "## 4. Sampling interval"):
         assert title in text
     for png in ("time_step.png", "averaging.png", "sampling.png"):
         assert (tmp_path / "accuracy" / png).stat().st_size > 10_000
