@@ -418,10 +418,7 @@ def write_report(runs: Path) -> None:
     lines += ["", "## Results (simulation B)", "",
               "| measure | " + " | ".join(f"`{n}`" for n in done) + " |",
               "|---|" + "---|" * len(done)]
-    for key, label, digits in MEASURES:
-        cell = label.replace("|", "\\|")  # a pipe inside a table cell
-        lines.append(f"| {cell} | " + " | ".join(fmt(rows, key, digits)
-                                                 for rows in done.values()) + " |")
+    lines += measure_rows(MEASURES, list(done.values()))
     lines.append("| runs finished | " + " | ".join(str(len(r)) for r in done.values()) + " |")
     lines += ["", f"The paper's B: v₀ = {PAPER['B']['v0']}, s = {PAPER['B']['s']}.", "",
               "## The rule applied", ""]
@@ -534,13 +531,16 @@ CLAIMS = {
 }
 
 
-PICKED_MEASURES = [("fit_v0", "v₀ (log fit)", 3), ("fit_s", "s (log fit)", 3),
-                   ("first_layer_speed", "v_φ/(Ωr), disks touching the inner ring", 3),
-                   ("dilation_deficit", "dilation ν(10–15) − ν(1–4)", 4),
-                   ("trF_bulk", "tr F at 10 ≤ r̃ ≤ 15", 3),
-                   ("contacts_per_disk_bulk", "contacts per disk at 10 ≤ r̃ ≤ 15", 3),
-                   ("stiffness_excess", "(2πĒ/k'_n)/tr F − 1 at 1 ≤ r̃ ≤ 15 (ε with η)", 3),
-                   ("mu_c_outer", "μ_c/k'_n, median at 4 ≤ r̃ ≤ 15", 4)]
+PICKED_MEASURES = [next(m for m in MEASURES if m[0] == key) for key in (
+    "fit_v0", "fit_s", "first_layer_speed", "dilation_deficit", "trF_bulk",
+    "contacts_per_disk_bulk", "stiffness_excess", "mu_c_outer")]
+
+
+def measure_rows(measures, groups) -> list[str]:
+    """One table row per measure: its label, then fmt() of every group of runs."""
+    return [f"| {label.replace('|', chr(92) + '|')} | "
+            + " | ".join(fmt(rows, key, digits) for rows in groups) + " |"
+            for key, label, digits in measures]
 
 
 def picked_section(chosen: str) -> list[str]:
@@ -550,9 +550,7 @@ def picked_section(chosen: str) -> list[str]:
            f"`{chosen}`, the full protocol; seed mean ± standard error of that mean (a single "
            "value where one seed has finished).", "",
            "| measure | A | B | C |", "|---|---|---|---|"]
-    for key, label, digits in PICKED_MEASURES:
-        out.append(f"| {label.replace('|', chr(92) + '|')} | "
-                   + " | ".join(fmt(rows[sim], key, digits) for sim in rows) + " |")
+    out += measure_rows(PICKED_MEASURES, list(rows.values()))
     out.append("| seeds finished | " + " | ".join(str(len(r)) for r in rows.values()) + " |")
     out.append("| the paper's v₀ / s | " + " | ".join(
         f"{PAPER[sim]['v0']} / {PAPER[sim]['s']}" for sim in rows) + " |")
