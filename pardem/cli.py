@@ -18,6 +18,7 @@ collective.
 from __future__ import annotations
 
 import argparse
+import shutil
 import sys
 import time
 from pathlib import Path
@@ -41,7 +42,8 @@ def main(argv: list[str] | None = None) -> int:
                           "restart of the same scene, which continues it)")
     run.add_argument("--quiet", action="store_true", help="no progress line")
     warm = sub.add_parser("warmup", help="compile (and cache) the kernels of scenes' sets of "
-                          "effects now, e.g. before a batch job, so that their runs start at once")
+                          "effects now, e.g. before a batch job, so that their runs start at once; under "
+                          "mpiexec -n P: what a P-rank run needs")
     warm.add_argument("scenes", nargs="+", help="scene files (TOML)")
     check = sub.add_parser("check", help="print the resolved scene, t_c, dt, volume fraction, "
                            "steps and an estimated run time (runs nothing)")
@@ -135,29 +137,50 @@ def main(argv: list[str] | None = None) -> int:
 
 def _warmup(args) -> int:
     """A few steps of each scene with every writer on, in a scratch folder: numba compiles what
-    a run of that scene needs and caches it on disk (~/.cache/pardem/numba)."""
+    a run of that scene needs and caches it on disk (~/.cache/pardem/numba). Under ``mpiexec
+    -n P`` it compiles what a P-rank run needs (the step loop with the ghost exchange)."""
     import dataclasses
     import tempfile
 
+    from .parallel import abort, world
     from .scene import SceneError, load_scene
     from .simulation import Simulation
 
+    comm = world()
+    root = comm is None or comm.Get_rank() == 0
     for path in args.scenes:
         t0 = time.perf_counter()
         try:
             scene = load_scene(path)
         except SceneError as e:
-            sys.stderr.write(f"pardem: error: {e}\n")
+            if root:
+                sys.stderr.write(f"pardem: error: {e}\n")
             return 2
-        with tempfile.TemporaryDirectory() as tmp:
-            sim = Simulation(scene, out_dir=tmp)
+        tmp = tempfile.mkdtemp(prefix="pardem-warmup-") if root else None
+        tmp = comm.bcast(tmp) if comm is not None else tmp
+        try:
+            sim = Simulation(scene, out_dir=tmp, comm=comm)
             dt = sim.dt  # every writer fires within the first steps
             averaging = scene.averaging and dataclasses.replace(
                 scene.averaging, start=0.0, end=4 * dt, sample_interval=2 * dt)
             sim.scene = dataclasses.replace(scene, averaging=averaging, output=dataclasses.replace(
                 scene.output, snapshot_interval=2 * dt, checkpoint_interval=2 * dt))
             sim.run(end=4 * dt, progress=False)
-        print(f"{path}: kernels ready in {time.perf_counter() - t0:.1f} s")
+        except BaseException:
+            if comm is not None:
+                import traceback
+
+                sys.stderr.write(f"pardem: warmup failed:\n{traceback.format_exc()}")
+                abort(comm)
+            raise
+        finally:
+            if comm is not None:
+                comm.Barrier()
+            if root:
+                shutil.rmtree(tmp, ignore_errors=True)
+        if root:
+            ranks = "" if comm is None else f" for {comm.Get_size()} ranks"
+            print(f"{path}: kernels ready{ranks} in {time.perf_counter() - t0:.1f} s")
     return 0
 
 

@@ -20,11 +20,11 @@ import numpy as np
 from .contact.model import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX,
                             W_FTY, W_FX, W_FY, W_HIST, W_LANE, W_REDO, W_TI, W_TJ, W_WI, W_WJ,
                             history_width, lane_contact, surface_contact)
-from .jit import INLINE
+from .jit import JIT
 from .walls import outer_radius, ring_surface
 
 
-@nb.njit(**INLINE)
+@nb.njit(**JIT)
 def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, record):
     """Pair contacts in canonical order, then flat ring contacts -> ps.f, ps.tau (of the first
     n_loc particles), histories and recorded forces. ``o``: contact.model.ContactOptions.
@@ -131,7 +131,7 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
         ring_contacts(ps, pairs, prm, t, reach, o, rotation, record)
 
 
-@nb.njit(**INLINE)
+@nb.njit(**JIT)
 def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record):
     """Contacts of candidate free particles with the two flat ring surfaces (infinitely
     massive; walls.ring_surface gives the geometry and the surface's motion)."""

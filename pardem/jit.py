@@ -9,9 +9,15 @@ compiled code is cached.
   in i <-> j); and "arcp" lets LLVM round a division differently in differently specialised
   kernels, so mu = 0 no longer reproduces tangential_friction = false bit for bit. Both were
   measured (tests/test_contact_law.py, tests/test_effects.py); the speed gain was ~1-2 %.
-- ``INLINE`` kernels are inlined into the step loop at numba IR level. A caller must not reuse a
-  variable name of an inlined callee: that was seen to change results by 1 ulp
+- ``INLINE`` kernels are inlined into their caller at numba IR level: the contact law into the
+  force loop's lanes (so that LLVM vectorises them), the integrator's kick and drift into the
+  step loop. numba copies the callee's IR for every call site, at a cost that grows with its
+  size (~20 s of the cold compile when the whole force loop was inlined into the step loop),
+  so large kernels are called instead and get their switches from ``static.py``. A caller must
+  not reuse a variable name of an inlined callee: that was seen to change results by 1 ulp
   (tests/test_contact_law.py compares the compiled loop with standalone kernel calls).
+- Compiled code assigns arrays element by element (``copy_values``), never ``a[i:j] = b``: see
+  there. ``run_scripts/compile_times.py`` measures the cold compile per module.
 
 The cache: numba keys a cached function by its own source file only, so a step loop that
 inlines a kernel from another file would keep serving stale code after that file changed.
@@ -63,3 +69,14 @@ def _source_keyed_cache() -> None:
 
 
 _source_keyed_cache()
+
+import numba  # noqa: E402  (after the cache folder is chosen: kernels cache there)
+
+
+@numba.njit(**JIT)
+def copy_values(dst, src):
+    """dst[k] = src[k] for every k of the 1-D ``src`` (compiled code). An array assigned to a
+    slice (``dst[a:b] = src``) would pull in numba's shape-mismatch error message, whose string
+    formatting costs seconds of every cold compile."""
+    for k in range(src.size):
+        dst[k] = src[k]

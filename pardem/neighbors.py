@@ -17,7 +17,7 @@ import numba as nb
 import numpy as np
 
 from .contact.history import carry_history, live_history
-from .jit import JIT
+from .jit import JIT, copy_values
 from .walls import outer_radius, ring_surface
 
 
@@ -142,9 +142,9 @@ def gid_order(gid, n):
                     b[o] = a[p]
                     p += 1
                 o += 1
-            b[o:o + mid - p] = a[p:mid]
+            copy_values(b[o:o + mid - p], a[p:mid])
             o += mid - p
-            b[o:o + last - q] = a[q:last]
+            copy_values(b[o:o + last - q], a[q:last])
             starts[merged] = first
             merged += 1
         starts[merged] = n
@@ -181,7 +181,9 @@ def build_lists(ps, pairs, clock, prm, t, from_list, history, walls):
         history = live_history(ps.gid, pairs.i, pairs.j, pairs.hist, pairs.count[0])
     n = clock.n_local[0] + clock.n_ghost[0]
     n_owned = clock.n_owned[0]
-    ps.x_ref[:n] = ps.x[:n]
+    for k in range(n):
+        ps.x_ref[k, 0] = ps.x[k, 0]
+        ps.x_ref[k, 1] = ps.x[k, 1]
     r_out = outer_radius(t, prm.rings)[0]
     clock.r_out_ref[0] = r_out
     count = build_pairs(ps.x, ps.radius, ps.gid, n_owned, n, prm.skin, pairs.i, pairs.j)

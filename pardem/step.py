@@ -20,10 +20,11 @@ many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
 Time is ``step * dt`` (never accumulated). Reads/writes: Particles, Pairs, Clock; reads Params,
 the ghost-refresh plan (None on one rank: no MPI code is compiled in).
 
-``StepOptions`` (hashable) is closed over by ``advance``: its switches are compile-time
-constants there, so a disabled effect is compiled out, and numba's disk cache serves the
-kernels to later processes (the closure holds only plain values; a closure over another
-jitted function would get a new cache key in every process).
+``StepOptions`` (hashable, ``@static``: its values are part of its numba type) is closed over
+by ``advance`` and passed on to the force loop: its switches are compile-time constants in
+both, so a disabled effect is compiled out, and numba's disk cache serves the kernels to later
+processes (the closure holds only plain values; a closure over another jitted function would
+get a new cache key in every process).
 """
 
 from __future__ import annotations
@@ -39,13 +40,15 @@ from .contact.model import ContactOptions, work_size
 from .forces import contact_forces
 from .integrate import drift, kick
 from .jit import JIT
+from .static import static
 from .parallel.refresh import refresh_ghosts
 
 OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED = 0, 1, 2, 3
 FORCES_ONLY = 2  # Clock.phase: the next advance call only computes the forces
 
 
-class StepOptions(NamedTuple):
+@static
+class StepOptions:
     """Compile-time switches of one scene. ``walls``: Couette rings are present. ``predict``:
     velocity-dependent forces use v + dt/2 a (else the half-step v); the integrator ([time]
     integrator) sets it together with ``contact.window``."""
@@ -81,8 +84,10 @@ def make_stepper(opts: StepOptions) -> Stepper:
         work = np.zeros(work_size(o))
         forces_only = clock.phase[0] == FORCES_ONLY
         if forces_only:  # synchronous velocities
-            ps.v_pred[:n_all] = ps.v[:n_all]
-            ps.w_pred[:n_all] = ps.omega[:n_all]
+            for k in range(n_all):
+                ps.v_pred[k, 0] = ps.v[k, 0]
+                ps.v_pred[k, 1] = ps.v[k, 1]
+                ps.w_pred[k] = ps.omega[k]
         while forces_only or clock.step[0] < target or clock.phase[0] == 1:
             if clock.phase[0] == 0:
                 kick(ps, n_owned, h, prm, opts, False)
@@ -105,7 +110,6 @@ def make_stepper(opts: StepOptions) -> Stepper:
             contact_forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], o,
                            opts.rotation, opts.walls, work, record)
             if forces_only:
-                # one call site of the force loop: each inlined copy costs ~40 s of compiling
                 clock.phase[0] = 0
                 return OK, -1
             kick(ps, n_owned, h, prm, opts, True)

@@ -117,6 +117,19 @@ def test_too_many_ranks_is_refused_with_a_clear_message(tmp_path):
     assert "too many for this cell" in proc.stderr and "use at most" in proc.stderr
 
 
+def test_a_2_rank_warmup_leaves_nothing_for_a_2_rank_run_to_compile(tmp_path):
+    """`mpiexec -n 2 pardem warmup SCENE` compiles what a 2-rank run of the scene calls: the
+    run then loads every kernel from the cache (numba reports each kernel it saves)."""
+    scene = fast_shear_scene(tmp_path, output={"snapshot_interval": 0.01})
+    warm = run_mpi(["-m", "pardem.cli", "warmup", str(scene)], 2, module=False)
+    assert "kernels ready for 2 ranks" in warm.stdout
+    done = run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / "run"),
+                    "--end", "0.03", "--quiet"], 2, module=False,
+                   env={"NUMBA_DEBUG_CACHE": "1"})
+    assert "[cache] data loaded" in done.stdout
+    assert "[cache] data saved" not in done.stdout, done.stdout
+
+
 def test_pardem_run_on_2_ranks_writes_the_serial_snapshots(tmp_path):
     """`mpiexec -n 2 pardem run` (the README's main job form) writes, sorted by id, the same
     particle and contact data as a serial run, and the same checkpoint."""

@@ -13,7 +13,7 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..jit import JIT
+from ..jit import JIT, copy_values
 
 SHIFT, LOW = 32, (1 << 32) - 1  # a pair's sort key: (gid_lo << 32) | gid_hi; gids < 2**31
 
@@ -53,7 +53,7 @@ def live_history(gid, pi, pj, xi, count):
         if live[k]:
             lo[q] = gid[pi[k]]
             hi[q] = gid[pj[k]]
-            out[q] = xi[k]
+            copy_values(out[q], xi[k])
             q += 1
     return lo, hi, out
 
@@ -69,10 +69,10 @@ def merge_history(lo, hi, xi, rows):
     vals = np.empty((n, w))
     for k in range(lo.size):
         key[k] = (lo[k] << SHIFT) | hi[k]
-        vals[k] = xi[k]
+        copy_values(vals[k], xi[k])
     for k in range(rows.shape[0]):
         key[lo.size + k] = (int(rows[k, 0]) << SHIFT) | int(rows[k, 1])
-        vals[lo.size + k] = rows[k, 2:]
+        copy_values(vals[lo.size + k], rows[k, 2:])
     order = np.argsort(key, kind="mergesort")
     m = 0
     for k in range(n):

@@ -3,9 +3,9 @@ parameters (``LawParams``), the per-contact history they keep, and the composed 
 force loop calls for disk-disk pairs (``lane_contact``) and disk-ring contacts
 (``surface_contact``); also the analytic contact time and the elastic energy of a contact.
 
-Stage: force kernels. Options are compile-time constants of the step loop (a NamedTuple closed
-over by ``step.make_stepper``), so a slot that is off is compiled out: no branch per contact and
-no history column. Slots:
+Stage: force kernels. Options are compile-time constants (``ContactOptions`` is ``@static``:
+its values are part of its numba type), so a slot that is off is compiled out: no branch per
+contact and no history column. Slots:
 
     normal      linear spring k_n delta (eq. 1.1), always on
     damping     viscous gamma_n delta_dot (eq. 1.2), with the integrator's entry/exit window
@@ -35,11 +35,13 @@ from typing import NamedTuple
 import numba as nb
 
 from ..jit import INLINE
+from ..static import static
 from .laws import (coulomb_limit, normal_elastic, normal_viscous, rolling_limit,
                    spring_increment)
 
 
-class ContactOptions(NamedTuple):
+@static
+class ContactOptions:
     """Which slots are compiled in (hashable; the step loop closes over it)."""
 
     damping: bool = True

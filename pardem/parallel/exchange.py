@@ -28,7 +28,7 @@ import numba as nb
 import numpy as np
 
 from ..contact.history import SHIFT, live_history, merge_history
-from ..jit import JIT
+from ..jit import JIT, copy_values
 from ..neighbors import build_lists
 from ..state import pack_particles, unpack_particles
 from ..walls import place_wall_disks
@@ -149,13 +149,13 @@ def send_rows(ps, pairs, n_owned, plan, from_list, history, handles):
         at = b + 2
         for q in range(idx.size):
             sbuf[at] = owner[idx[q]]
-            sbuf[at + 1:at + 1 + width] = rows[q]
+            copy_values(sbuf[at + 1:at + 1 + width], rows[q])
             at += width + 1
         for k in range(lo.size if leaving.size else 0):
             if spring_lo[k] == r or spring_hi[k] == r:
                 sbuf[at] = lo[k]
                 sbuf[at + 1] = hi[k]
-                sbuf[at + 2:at + 2 + hw] = xi[k]
+                copy_values(sbuf[at + 2:at + 2 + hw], xi[k])
                 at += 2 + hw
     rbuf, recv_off, err = alltoallv(sbuf, send_off, handles)
     return rbuf, recv_off, owner, (lo, hi, xi), err
@@ -208,15 +208,15 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
         at = b + 2
         for k in range(int(rbuf[b])):
             if int(rbuf[at]) == rank:
-                arrivals[a] = rbuf[at + 1:at + 1 + width]
+                copy_values(arrivals[a], rbuf[at + 1:at + 1 + width])
                 a += 1
             else:
-                ghosts[g] = rbuf[at + 1:at + 1 + width]
+                copy_values(ghosts[g], rbuf[at + 1:at + 1 + width])
                 key[g] = (int(rbuf[at]) << SHIFT) | int(rbuf[at + 1])
                 g += 1
             at += width + 1
         for k in range(int(rbuf[b + 1])):
-            springs[s] = rbuf[at:at + 2 + hw]
+            copy_values(springs[s], rbuf[at:at + 2 + hw])
             s += 1
             at += 2 + hw
     for k in range(stay_idx.size):

@@ -1,0 +1,163 @@
+"""Benchmark: the cold compile of a scene's kernels, per kernel group, on 1 or more ranks; optionally
+against an older commit, side by side.
+
+    python run_scripts/compile_times.py [SCENE] [--ranks 1 2] [--repeats 1] [--against REV]
+
+Each measurement is a fresh ``mpiexec -n P`` job with an empty numba cache (its own temporary
+NUMBA_CACHE_DIR) that does what ``pardem warmup`` does: builds the scene (P ranks: decomposed),
+runs a few steps with every writer on, and so compiles every kernel a run of that scene calls.
+A listener on numba's compile events charges each compilation, minus the compilations nested
+in it, to the nearest function of pardem or averaging on the stack: a kernel's group is its
+module, and numba's own library code (array setitem, string formatting) is charged to the
+kernel that pulled it in. Prints, per group, the median over repeats of rank 0's seconds, and
+the job's wall time from process start to the kernels being ready (imports included).
+``--against REV``: the same jobs with the code of git revision REV (a temporary worktree),
+alternating with this tree's, so that both see the same machine load.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+HERE = Path(__file__).resolve().parent
+T_PROCESS = time.perf_counter()
+
+
+def worker(scene_path: str) -> None:
+    """One cold compile under mpiexec (this tree's or REV's pardem on sys.path); rank 0 prints a
+    JSON line with the seconds per group."""
+    from numba.core import event
+
+    stack: list[list] = []
+    spent: dict[str, float] = {}
+
+    def owner(frame_names: list[str]) -> str:
+        for name in reversed(frame_names):
+            if name.startswith(("pardem.", "averaging.")):
+                return name
+        return "numba (outside pardem)"
+
+    class Charge(event.Listener):
+        def on_start(self, ev):
+            fn = ev.data["dispatcher"].py_func
+            stack.append([f"{fn.__module__}:{fn.__qualname__}", time.perf_counter(), 0.0])
+
+        def on_end(self, ev):
+            name, t0, nested = stack.pop()
+            took = time.perf_counter() - t0
+            group = owner([s[0] for s in stack] + [name]).split(":")[0]
+            spent[group] = spent.get(group, 0.0) + took - nested
+            if stack:
+                stack[-1][2] += took
+
+    event.register("numba:compile", Charge())
+
+    import dataclasses
+
+    from mpi4py import MPI
+
+    from pardem.scene import load_scene
+    from pardem.simulation import Simulation
+
+    comm = MPI.COMM_WORLD
+    scene = load_scene(scene_path)
+    tmp = comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None)
+    t0 = time.perf_counter()
+    sim = Simulation(scene, out_dir=tmp, comm=comm if comm.size > 1 else None)
+    dt = sim.dt  # every writer fires within the first steps (as pardem warmup does)
+    averaging = scene.averaging and dataclasses.replace(
+        scene.averaging, start=0.0, end=4 * dt, sample_interval=2 * dt)
+    sim.scene = dataclasses.replace(scene, averaging=averaging, output=dataclasses.replace(
+        scene.output, snapshot_interval=2 * dt, checkpoint_interval=2 * dt))
+    sim.run(end=4 * dt, progress=False)
+    comm.Barrier()
+    row = {"ready_s": time.perf_counter() - T_PROCESS, "compile_s": sum(spent.values()),
+           "setup_and_steps_s": time.perf_counter() - t0, "groups": spent}
+    rows = comm.gather(row, root=0)
+    if comm.rank == 0:
+        print("RESULT " + json.dumps({"ranks": rows}))
+
+
+def one_job(tree: Path, scene: Path, ranks: int) -> dict:
+    with tempfile.TemporaryDirectory() as cache:
+        env = dict(os.environ, NUMBA_CACHE_DIR=cache, NUMBA_NUM_THREADS="1",
+                   PYTHONPATH=str(tree))
+        mpiexec = Path(sys.executable).parent / "mpiexec"
+        cmd = [str(mpiexec), "-n", str(ranks), sys.executable, str(Path(__file__).resolve()),
+               "--worker", str(scene)]
+        done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
+    for line in done.stdout.splitlines():
+        if line.startswith("RESULT "):
+            return json.loads(line[len("RESULT "):])
+    raise SystemExit(f"compile job failed ({' '.join(cmd)}):\n{done.stdout}\n{done.stderr}")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("scene", nargs="?", default=str(HERE / "couette_quick.toml"))
+    ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
+    ap.add_argument("--repeats", type=int, default=1)
+    ap.add_argument("--against", help="a git revision to measure side by side")
+    ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.worker:
+        return worker(args.scene)
+    scene = Path(args.scene).resolve()
+    with tempfile.TemporaryDirectory() as tmp:
+        trees = {"new": HERE.parent}
+        if args.against:
+            trees["old"] = Path(tmp) / "old"
+            subprocess.run(["git", "-C", str(HERE.parent), "worktree", "add", "--detach",
+                            str(trees["old"]), args.against], check=True, capture_output=True)
+        try:
+            results: dict = {(c, p): [] for c in trees for p in args.ranks}
+            for k in range(args.repeats):
+                for p in args.ranks:
+                    for code, tree in trees.items():
+                        got = one_job(tree, scene, p)
+                        results[code, p].append(got["ranks"])
+                        r0 = got["ranks"][0]
+                        print(f"round {k + 1}: {code} code, {p} rank(s): kernels ready "
+                              f"{max(r['ready_s'] for r in got['ranks']):.1f} s after start, "
+                              f"{r0['compile_s']:.1f} s compiling on rank 0", flush=True)
+        finally:
+            if args.against:
+                subprocess.run(["git", "-C", str(HERE.parent), "worktree", "remove", "--force",
+                                str(trees["old"])], capture_output=True)
+    report(results, list(trees), args.ranks, args.against)
+
+
+def report(results: dict, codes: list[str], ranks: list[int], against: str | None) -> None:
+    def med(values):
+        return statistics.median(values) if values else 0.0
+
+    for p in ranks:
+        groups = sorted({g for c in codes for run in results[c, p] for g in run[0]["groups"]},
+                        key=lambda g: -med([run[0]["groups"].get(g, 0.0)
+                                            for run in results[codes[0], p]]))
+        head = " | ".join(f"{c} code (s)" for c in codes)
+        print(f"\n{p} rank(s), rank 0, median of {len(results[codes[0], p])}"
+              + (f" (old = {against})" if against else "") + f"\n| kernel group | {head} |\n"
+              + "|---|" + "---|" * len(codes))
+        for g in groups:
+            cells = " | ".join(f"{med([run[0]['groups'].get(g, 0.0) for run in results[c, p]]):.1f}"
+                               for c in codes)
+            print(f"| {g} | {cells} |")
+        for key, label in (("compile_s", "all compiling"),
+                           ("ready_s", "process start to kernels ready (slowest rank)")):
+            cells = " | ".join(
+                f"{med([max(r[key] for r in run) if key == 'ready_s' else run[0][key] for run in results[c, p]]):.1f}"
+                for c in codes)
+            print(f"| **{label}** | {cells} |")
+
+
+if __name__ == "__main__":
+    main()
