@@ -11,7 +11,7 @@ in it, to the nearest function of pardem or averaging on the stack: a kernel's g
 module, and numba's own library code (array setitem, string formatting) is charged to the
 kernel that pulled it in. Prints, per group, the median over repeats of rank 0's seconds, and
 the job's wall time from process start to the kernels being ready (imports included).
-``--against REV``: the same jobs with the code of git revision REV (a temporary worktree),
+``--detail``: per function instead of per module. ``--against REV``: the same jobs with the code of git revision REV (a temporary worktree),
 alternating with this tree's, so that both see the same machine load.
 """
 
@@ -28,6 +28,7 @@ import time
 from pathlib import Path
 
 HERE = Path(__file__).resolve().parent
+DETAIL = bool(os.environ.get("PARDEM_COMPILE_DETAIL"))  # --detail: per function, not module
 T_PROCESS = time.perf_counter()
 
 
@@ -53,7 +54,9 @@ def worker(scene_path: str) -> None:
         def on_end(self, ev):
             name, t0, nested = stack.pop()
             took = time.perf_counter() - t0
-            group = owner([s[0] for s in stack] + [name]).split(":")[0]
+            group = owner([s[0] for s in stack] + [name])
+            if not DETAIL:
+                group = group.split(":")[0]
             spent[group] = spent.get(group, 0.0) + took - nested
             if stack:
                 stack[-1][2] += took
@@ -106,11 +109,14 @@ def main() -> None:
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeats", type=int, default=1)
     ap.add_argument("--against", help="a git revision to measure side by side")
+    ap.add_argument("--detail", action="store_true", help="per function instead of per module")
     ap.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
         return worker(args.scene)
     scene = Path(args.scene).resolve()
+    if args.detail:
+        os.environ["PARDEM_COMPILE_DETAIL"] = "1"
     with tempfile.TemporaryDirectory() as tmp:
         trees = {"new": HERE.parent}
         if args.against:

@@ -229,7 +229,8 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
     if moved:
         own = np.empty((kept.size + n_arr, width))
         pack_particles(ps, kept, own)
-        own[kept.size:] = arrivals
+        for r in range(n_arr):
+            copy_values(own[kept.size + r], arrivals[r])
         own = own[np.argsort(own[:, 0])]  # column 0: gid
         walls = np.empty((n_local - n_owned, width))
         pack_particles(ps, np.arange(n_owned, n_local), walls)
