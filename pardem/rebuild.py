@@ -41,13 +41,12 @@ def migrate(sim, history, rebalance: bool):
     Returns the history with the migrants' merged in, and (pair count, ring candidate
     count) of the lists, or (-1, -1) if they were not built."""
     clock, ps, hist = sim.clock, sim.ps, sim.hist
-    n_owned, n_local = int(clock.n_owned[0]), int(clock.n_local[0])
-    idle = n_local - int(clock.n_moving[0])  # wall disks not moved since the last build
+    n_owned, n_local, idle = counts = exchange_counts(clock)
     if rebalance:
         sim.decomp.rebalance(ps.x[:n_owned])
     written, moved, own, walls, ghosts, lists, history = sim.decomp.distribute(
-        ps, sim.pairs, clock, (n_owned, n_local, idle), hist, sim.options.walls, history,
-        sim.time, sim.prm, sim.wall_margin)
+        ps, sim.pairs, clock, counts, hist, sim.options.walls, history, sim.time, sim.prm,
+        sim.wall_margin)
     if not written:  # ps too small: store the rows in larger arrays
         rows = np.concatenate([own, walls, ghosts] if moved else
                               [packed(ps, np.arange(n_local), hist), ghosts])
@@ -55,6 +54,12 @@ def migrate(sim, history, rebalance: bool):
         unpack_particles(rows, ps, 0)
         order_walls(sim, idle)  # the wall block keeps its order: the idle ones are last
     return history, lists
+
+
+def exchange_counts(clock) -> tuple[int, int, int]:
+    """(owned rows, owned rows + wall disks, wall disks not moved since the last build)."""
+    n_owned, n_local = int(clock.n_owned[0]), int(clock.n_local[0])
+    return n_owned, n_local, n_local - int(clock.n_moving[0])
 
 
 def order_walls(sim, idle: int) -> None:

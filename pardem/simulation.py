@@ -23,6 +23,7 @@ import time
 from pathlib import Path
 import numpy as np
 
+from .compile_ahead import compile_ahead
 from .contact.history import carry_history, live_history
 from .contact.model import history_columns, law_params, options_for
 from .output.progress import breakdown, end_progress, log_line, progress_line, show_progress
@@ -128,6 +129,7 @@ class Simulation(StateViews):
         self.wall_margin = self.decomp.ghost_width + 2.0 * float(
             init.radius[init.n_free:].max(initial=0.0))
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.hist)
+        compile_ahead(self, history)  # parallel runs: the ranks share a cold compile
         self._rebuild(history=history, rebalance=False)
         if restart is None:
             self._compute_forces()

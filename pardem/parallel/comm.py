@@ -164,13 +164,9 @@ class Decomposition:
         ring-contact candidates if ``ring_walls``; ``prm``: the step loop's Params). Returns
         ``(written, moved, own, walls, ghosts, lists, history)``: lists as from exchange_rows,
         the rest as from ``receive_rows``."""
-        plan = ExchangePlan(self.sectors.edges, self.rank, self.ghost_width, wall_margin,
-                            row_width(hist), row_columns(hist)["x"].start, self.shared_halo,
-                            ring_walls)
         err, (written, moved, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
-            (peer_at, need), lists = exchange_rows(
-                ps, pairs, clock, counts, plan, hist > 0 and history is None,
-                history if history is not None else NO_HISTORY, t, prm, self._handles)
+            (peer_at, need), lists = exchange_rows(*self.exchange_arguments(
+                ps, pairs, clock, counts, hist, ring_walls, history, t, prm, wall_margin))
         if err:
             raise RuntimeError(f"MPI exchange of migrants and ghosts failed on rank {self.rank}")
         self.n_migrated += n_arrived
@@ -192,6 +188,16 @@ class Decomposition:
         self.halo = make_halo(self.comm, buffers, use_allreduce, self.wait,
                               self.window if shared else None, peer_at)
         return written, moved, own, walls, ghosts, lists, (springs if hist else None)
+
+    def exchange_arguments(self, ps, pairs, clock, counts, hist, ring_walls, history, t, prm,
+                           wall_margin) -> tuple:
+        """The arguments of ``exchange.exchange_rows`` for ``distribute``'s (also what
+        ``compile_ahead`` compiles it for)."""
+        plan = ExchangePlan(self.sectors.edges, self.rank, self.ghost_width, wall_margin,
+                            row_width(hist), row_columns(hist)["x"].start, self.shared_halo,
+                            ring_walls)
+        return (ps, pairs, clock, counts, plan, hist > 0 and history is None,
+                history if history is not None else NO_HISTORY, t, prm, self._handles)
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:
         """Values of an owned per-particle array for this rank's ghosts, in ghost order (output
