@@ -17,7 +17,6 @@ import numpy as np
 from numba.core import types
 
 from .forces import contact_forces, ring_contacts
-from .parallel.exchange import exchange_rows
 from .rebuild import exchange_counts
 
 
@@ -39,6 +38,8 @@ def compile_ahead(sim, history) -> None:
 
 def _groups(sim, history) -> list[list]:
     """Per rank, the kernels to compile and their signatures."""
+    from .parallel.exchange import exchange_rows  # loads libmpi: parallel runs only
+
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
     exchange = sim.decomp.exchange_arguments(ps, pairs, sim.clock, exchange_counts(sim.clock),
                                              sim.hist, opts.walls, history, sim.time, prm,

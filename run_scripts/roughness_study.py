@@ -231,8 +231,9 @@ def measure(run_dir: Path) -> dict:
     out["M_zr_outer_rms"] = float(np.sqrt(np.mean(f["M_zr"][outer] ** 2)))
     out["M_zr_outer_within_2err"] = float(np.mean(np.abs(f["M_zr"][outer]) < 2 * m_err[outer]))
     out.update(wall_contacts(run_dir, scene))
-    out["wall_friction"] = out["inner_torque"] / (scene.geometry.inner_radius
-                                                  * out["inner_normal_force"])
+    # a frictionless cell can leave the inner ring untouched through the whole window
+    load = scene.geometry.inner_radius * out["inner_normal_force"]
+    out["wall_friction"] = out["inner_torque"] / load if load > 0 else math.nan
     for which in ("eta", "spring"):
         out.update(displacement_measures(run_dir, scene, which))
     out["v_bar_wall"] = wall_fraction(scene)
@@ -309,9 +310,11 @@ def wall_contacts(run_dir: Path, scene) -> dict:
     sizes = {f"mean_{k}": float(np.mean(v)) for k, v in (
         ("overlap", c["overlap"]), ("spring", np.hypot(*c["spring"].T)),
         ("eta", np.hypot(*c["displacement"].T) if "displacement" in c else np.nan))}
-    return {**sizes,"inner_capped_fraction": float(np.concatenate(capped).mean()),
-            "inner_normal_angle_mean": float(ang.mean()),
-            "inner_normal_angle_median": float(np.median(ang)),
+    capped = np.concatenate(capped)
+    return {**sizes,
+            "inner_capped_fraction": float(capped.mean()) if capped.size else math.nan,
+            "inner_normal_angle_mean": float(ang.mean()) if ang.size else math.nan,
+            "inner_normal_angle_median": float(np.median(ang)) if ang.size else math.nan,
             "inner_normal_force": float(np.mean(normal_sum)),
             "inner_contacts_per_snapshot": float(ang.size / n_snap),
             "inner_flat_share": float(n_flat / max(ang.size, 1)),
