@@ -13,7 +13,7 @@ import math
 
 from .scene import Scene, scene_to_toml
 from .timestep import resolve_dt, smallest_contact_time
-from .walls import wall_area_share
+from .walls import global_volume_fraction
 
 REFERENCE_RATE = 25e6
 """Particle-steps per second of one rank on couette_B (docs/scaling.md, 2-core machine)."""
@@ -24,10 +24,7 @@ def volume_fraction(scene: Scene) -> float | None:
     half of every wall disk, over pi (R_o^2 - R_i^2) (the paper's v-bar); None for free
     scenes."""
     g = scene.geometry
-    if g is None:
-        return None
-    disks = sum(s.count * math.pi * s.diameter**2 / 4 for s in scene.species)
-    return (disks + wall_area_share(g)) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
+    return None if g is None else global_volume_fraction(g, scene.species)
 
 
 def describe(scene: Scene) -> str:

@@ -118,7 +118,7 @@ def main(argv: list[str] | None = None) -> int:
         sim.run(end=args.end, progress=not args.quiet)
     except SceneError as e:
         if root:
-            sys.stderr.write(f"pardem: error: {e}\n")
+            sys.stderr.write(f"pardem: error: {in_file(e, args.scene)}\n")
         return 2
     except SimulationError as e:
         if root:
@@ -139,33 +139,24 @@ def _warmup(args) -> int:
     """A few steps of each scene with every writer on, in a scratch folder: numba compiles what
     a run of that scene needs and caches it on disk (~/.cache/pardem/numba). Under ``mpiexec
     -n P`` it compiles what a P-rank run needs (the step loop with the ghost exchange)."""
-    import dataclasses
     import tempfile
 
     from .parallel import abort, world
     from .scene import SceneError, load_scene
-    from .simulation import Simulation
+    from .simulation import warm_up
 
     comm = world()
     root = comm is None or comm.Get_rank() == 0
     for path in args.scenes:
         t0 = time.perf_counter()
-        try:
-            scene = load_scene(path)
-        except SceneError as e:
-            if root:
-                sys.stderr.write(f"pardem: error: {e}\n")
-            return 2
         tmp = tempfile.mkdtemp(prefix="pardem-warmup-") if root else None
         tmp = comm.bcast(tmp) if comm is not None else tmp
         try:
-            sim = Simulation(scene, out_dir=tmp, comm=comm)
-            dt = sim.dt  # every writer fires within the first steps
-            averaging = scene.averaging and dataclasses.replace(
-                scene.averaging, start=0.0, end=4 * dt, sample_interval=2 * dt)
-            sim.scene = dataclasses.replace(scene, averaging=averaging, output=dataclasses.replace(
-                scene.output, snapshot_interval=2 * dt, checkpoint_interval=2 * dt))
-            sim.run(end=4 * dt, progress=False)
+            warm_up(load_scene(path), tmp, comm)
+        except SceneError as e:  # in the file, or found building the state (placement, dt)
+            if root:
+                sys.stderr.write(f"pardem: error: {in_file(e, path)}\n")
+            return 2
         except BaseException:
             if comm is not None:
                 import traceback
@@ -191,9 +182,16 @@ def _check(args) -> int:
     try:
         print(describe(load_scene(args.scene)))
     except SceneError as e:
-        sys.stderr.write(f"pardem: error: {e}\n")
+        sys.stderr.write(f"pardem: error: {in_file(e, args.scene)}\n")
         return 2
     return 0
+
+
+def in_file(error: Exception, scene_path: str) -> str:
+    """A scene error as the user reads it: prefixed with the scene file, unless it already names
+    a file or is about a command-line option (--out, --restart, --end)."""
+    text, name = str(error), str(Path(scene_path))
+    return text if text.startswith((name, "--")) else f"{name}: {text}"
 
 
 def _average(args) -> int:

@@ -66,7 +66,9 @@ class Geometry:
     global volume fraction (free disks plus half of each wall disk, over pi (R_o^2 - R_i^2),
     the paper's v-bar); the species then give ``share`` instead of ``count``, and the counts
     are the nearest integers to share / sum(shares) x the number of disks that reach it. The
-    resolved scene (``pardem check``, DIR/scene.toml) holds the counts."""
+    resolved scene (``pardem check``, DIR/scene.toml) holds the counts. Given or from the
+    counts, the fraction may not exceed pi / (2 sqrt 3) = 0.9069 (the hexagonal packing) for
+    disks of one diameter, nor 1 for several."""
 
     inner_radius: float = key(0.1035, "m", ">0")
     outer_radius: float = key(0.2525, "m")

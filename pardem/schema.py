@@ -161,14 +161,30 @@ def _check_counts(species: tuple[Species, ...], filling: bool) -> None:
                              "volume_fraction with a share per species)")
 
 
+HEXAGONAL_PACKING = math.pi / (2.0 * math.sqrt(3.0))
+
+
+def densest_packing(species: tuple[Species, ...]) -> tuple[float, str]:
+    """The fraction no cell of these disks can be compressed beyond, and what it is: the
+    hexagonal packing for one diameter; for several, only the cell's whole area (small disks
+    can fill the holes between large ones)."""
+    if len({s.diameter for s in species}) == 1:
+        return HEXAGONAL_PACKING, "the densest packing of equal disks"
+    return 1.0, "the whole cell"
+
+
 def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, ...], Geometry]:
     """Every species' count: given, or from [geometry] volume_fraction and the shares (the
     resolved scene keeps the counts and drops the fraction and shares)."""
-    if g.volume_fraction is not None:
-        from .walls import wall_area_share
+    from .walls import global_volume_fraction, wall_area_share
 
-        area = math.pi * (g.outer_radius**2 - g.inner_radius**2)
-        walls = wall_area_share(g)
+    area = math.pi * (g.outer_radius**2 - g.inner_radius**2)
+    walls = wall_area_share(g)
+    densest, what = densest_packing(species)
+    if g.volume_fraction is not None:
+        if g.volume_fraction > densest:
+            raise fail("[geometry]", "volume_fraction", g.volume_fraction,
+                       f"above {densest:.4f}, {what}")
         total = sum(s.share for s in species)
         per_disk = sum(s.share / total * math.pi * s.diameter**2 / 4 for s in species)
         n = (g.volume_fraction * area - walls) / per_disk
@@ -180,6 +196,12 @@ def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, .
         g = dataclasses.replace(g, volume_fraction=None)
     if sum(s.count for s in species) < 1:
         raise SceneError("[[species]] count: total count must be >= 1")
+    nu = global_volume_fraction(g, species)
+    if nu > densest:
+        raise SceneError(
+            f"[[species]] count: {sum(s.count for s in species)} disks (with half of each wall "
+            f"disk) fill {nu:.4f} of the cell between inner_radius and outer_radius, above "
+            f"{densest:.4f}, {what}; reduce the counts or enlarge outer_radius")
     return species, g
 
 

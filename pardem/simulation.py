@@ -358,3 +358,20 @@ class Simulation(StateViews):
         state = self.checkpoint_state()
         if state is not None:
             save_checkpoint(path or self.out_dir / "checkpoint.h5", *state)
+
+
+def warm_up(scene: Scene, out_dir: str | Path, comm=None) -> Simulation:
+    """Build ``scene`` (decomposed over ``comm``'s ranks) and run four steps with every writer
+    firing (snapshots, checkpoints, ring samples) into the scratch folder ``out_dir``: numba then
+    has compiled, and cached on disk, every kernel a run of this scene on this many ranks calls.
+    ``pardem warmup`` and ``run_scripts/compile_times.py`` both do this."""
+    import dataclasses
+
+    sim = Simulation(scene, out_dir=out_dir, comm=comm)
+    dt = sim.dt
+    averaging = scene.averaging and dataclasses.replace(
+        scene.averaging, start=0.0, end=4 * dt, sample_interval=2 * dt)
+    sim.scene = dataclasses.replace(scene, averaging=averaging, output=dataclasses.replace(
+        scene.output, snapshot_interval=2 * dt, checkpoint_interval=2 * dt))
+    sim.run(end=4 * dt, progress=False)
+    return sim

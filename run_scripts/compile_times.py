@@ -64,30 +64,42 @@ def worker(scene_path: str) -> None:
 
     event.register("numba:compile", Charge())
 
-    import dataclasses
-
     from mpi4py import MPI
 
     from pardem.scene import load_scene
-    from pardem.simulation import Simulation
+
+    try:
+        from pardem.simulation import warm_up
+    except ImportError:  # a tree from before warm_up (--against an old REV)
+        warm_up = _old_warm_up
 
     comm = MPI.COMM_WORLD
     scene = load_scene(scene_path)
     tmp = comm.bcast(tempfile.mkdtemp() if comm.rank == 0 else None)
     t0 = time.perf_counter()
-    sim = Simulation(scene, out_dir=tmp, comm=comm if comm.size > 1 else None)
-    dt = sim.dt  # every writer fires within the first steps (as pardem warmup does)
-    averaging = scene.averaging and dataclasses.replace(
-        scene.averaging, start=0.0, end=4 * dt, sample_interval=2 * dt)
-    sim.scene = dataclasses.replace(scene, averaging=averaging, output=dataclasses.replace(
-        scene.output, snapshot_interval=2 * dt, checkpoint_interval=2 * dt))
-    sim.run(end=4 * dt, progress=False)
+    warm_up(scene, tmp, comm if comm.size > 1 else None)
     comm.Barrier()
     row = {"ready_s": time.perf_counter() - T_PROCESS, "compile_s": sum(spent.values()),
            "setup_and_steps_s": time.perf_counter() - t0, "groups": spent}
     rows = comm.gather(row, root=0)
     if comm.rank == 0:
         print("RESULT " + json.dumps({"ranks": rows}))
+
+
+def _old_warm_up(scene, out_dir, comm):
+    """pardem.simulation.warm_up for trees that predate it (their pardem warmup ran serially)."""
+    import dataclasses
+
+    from pardem.simulation import Simulation
+
+    sim = Simulation(scene, out_dir=out_dir, comm=comm)
+    period = 2 * sim.dt
+    sim.scene = dataclasses.replace(
+        scene, averaging=scene.averaging and dataclasses.replace(
+            scene.averaging, start=0.0, end=2 * period, sample_interval=period),
+        output=dataclasses.replace(scene.output, snapshot_interval=period,
+                                   checkpoint_interval=period))
+    sim.run(end=2 * period, progress=False)
 
 
 def one_job(tree: Path, scene: Path, ranks: int) -> dict:

@@ -103,12 +103,22 @@ def test_console_script_runs(tmp_path):
 
 
 def test_more_particles_than_fit_is_refused(tmp_path, capsys):
+    """Two stages refuse a crowded cell, each naming the scene file: the counts (more disk
+    area than the cell has, when the file is read), and the placement (B's counts fit the cell
+    at 0.81, but not on the start lattice, spaced by the largest diameter, without the dilute
+    start)."""
     scene = (Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml").read_text()
     bad = tmp_path / "crowded.toml"
     bad.write_text(scene.replace("count = 2545", "count = 25450"))
     assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert "cannot place 25844 particles" in err and "outer_start_radius" in err
+    assert f"pardem: error: {bad}: [[species]] count: 25844 disks" in err
+    assert "fill 6.7587 of the cell" in err and "reduce the counts or enlarge outer_radius" in err
+    bad.write_text(scene.replace("outer_start_radius = 0.33", "outer_start_radius = 0.2525"))
+    assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"pardem: error: {bad}: cannot place 2939 particles" in err
+    assert "outer_start_radius" in err
 
 
 def test_a_folder_holding_another_run_needs_overwrite(tmp_path, capsys):

@@ -163,6 +163,13 @@ def test_bad_couette_value(path, value, message):
      "[averaging] ring_width = 0.2: wider than the gap outer_radius - inner_radius = 0.149 m"),
     ({"geometry.outer_radius": 0.108}, "[geometry] outer_radius - inner_radius"),
     ({"species.0.count": 0, "species.1.count": 0}, "total count must be >= 1"),
+    # area: pi (0.2525^2 - 0.1035^2) = 0.166643 m^2; a disk of 7.42 mm 4.32412e-5 m^2, the
+    # default 93 + 227 wall disks at half their 4.90874e-6 m^2 add 7.854e-4 m^2
+    ({"species.0.count": 3545},  # + 394 of 8.99 mm: (0.153290 + 0.025010 + 0.000785) / 0.166643
+     "[[species]] count: 3939 disks (with half of each wall disk) fill 1.0747 of the cell"),
+    ({"species.0.count": 3200, "species.1.diameter": D_S},  # one size: hexagonal at most
+     "fill 0.9373 of the cell between inner_radius and outer_radius, above 0.9069, the "
+     "densest packing of equal disks"),
     ({"geometry.inner_wall_count": 0, "geometry.inner_flat_surface": False},
      "[geometry] inner_flat_surface = false: a ring with inner_wall_count = 0 (smooth) needs "
      "its flat surface"),
@@ -474,6 +481,8 @@ def test_filling_to_a_volume_fraction_gives_the_papers_counts():
     ({}, {"share": 1.0}, "share = 1.0: needs [geometry] volume_fraction"),
     ({}, {}, "count: missing (required, or [geometry] volume_fraction"),
     ({"volume_fraction": 0.001}, {"share": 1.0}, "the wall disks alone fill"),
+    ({"volume_fraction": 0.91}, {"share": 1.0},  # one size: pi / (2 sqrt 3) = 0.906900 at most
+     "[geometry] volume_fraction = 0.91: above 0.9069, the densest packing of equal disks"),
 ])
 def test_volume_fraction_and_counts_errors(geometry, species, message):
     d = {"scene": {"kind": "couette"}, "geometry": geometry,
