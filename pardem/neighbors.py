@@ -18,6 +18,7 @@ import numpy as np
 
 from .contact.history import carry_history, live_history
 from .jit import JIT, copy_values
+from .sorted_runs import run_order
 from .walls import outer_radius, ring_surface
 
 
@@ -75,7 +76,7 @@ def build_pairs(x, radius, gid, n_own, n, skin, pi, pj):
         sr[s] = radius[k]
         sg[s] = gid[k]
         sk[s] = k
-    order = gid_order(gid, n)
+    order = run_order(gid, n)  # the rows are a few ascending runs of gids
     buf = np.empty(9 * most + 1, np.int64)
     count = 0
     for oi in range(n):
@@ -110,47 +111,6 @@ def build_pairs(x, radius, gid, n_own, n, skin, pi, pj):
                 pj[count] = sk[buf[q]]
             count += 1
     return count
-
-
-@nb.njit(**JIT)
-def gid_order(gid, n):
-    """Indices of gid[:n] (unique) in ascending gid order. The rows are stored as a few ascending
-    runs (owned particles; wall disks, near ones first; ghosts, by owner), so the runs are
-    merged pairwise: O(n log runs). A general sort cost ~60 us per build on 2 ranks."""
-    starts = np.empty(n + 1, np.int64)  # run r is a[starts[r]:starts[r + 1]]
-    starts[0] = 0
-    runs = 0
-    for k in range(1, n):
-        if gid[k] < gid[k - 1]:
-            runs += 1
-            starts[runs] = k
-    runs += 1
-    starts[runs] = n
-    a = np.arange(n)
-    b = np.empty(n, np.int64)
-    while runs > 1:
-        merged = 0
-        for r in range(0, runs, 2):
-            first, mid = starts[r], starts[r + 1]
-            last = starts[r + 2] if r + 2 <= runs else mid  # odd run out: copied
-            p, q, o = first, mid, first
-            while p < mid and q < last:
-                if gid[a[q]] < gid[a[p]]:
-                    b[o] = a[q]
-                    q += 1
-                else:
-                    b[o] = a[p]
-                    p += 1
-                o += 1
-            copy_values(b[o:o + mid - p], a[p:mid])
-            o += mid - p
-            copy_values(b[o:o + last - q], a[q:last])
-            starts[merged] = first
-            merged += 1
-        starts[merged] = n
-        runs = merged
-        a, b = b, a
-    return a
 
 
 @nb.njit(**JIT)

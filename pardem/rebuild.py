@@ -53,6 +53,7 @@ def migrate(sim, history, rebalance: bool):
         sim.ps = ps = new_particles(int(1.25 * rows.shape[0]), hist)
         unpack_particles(rows, ps, 0)
         order_walls(sim, idle)  # the wall block keeps its order: the idle ones are last
+    sim.decomp.exchanged(sim.ps.x[:int(sim.clock.n_local[0])])  # idle walls placed at t
     return history, lists
 
 

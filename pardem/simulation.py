@@ -298,7 +298,9 @@ class Simulation(StateViews):
             t1 = time.perf_counter()
             self.timers["forces+integration"] += t1 - t0
             if status == NEED_REBUILD:  # every rank returns at the same step (global maxima)
-                self._rebuild(exchange=self.decomp.exchange_due(float(self.clock.disp[0])))
+                place_idle_walls(self)  # every wall disk where it is now
+                n = int(self.clock.n_local[0])
+                self._rebuild(exchange=self.decomp.exchange_due(self.ps.x[:n]))
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
             elif status == BAD_PARTICLE:
                 message = self._bad_particle_message(bad) if bad >= 0 else None

@@ -3,7 +3,8 @@
 import numpy as np
 
 from pardem.contact.history import carry_history
-from pardem.neighbors import build_pairs, gid_order
+from pardem.neighbors import build_pairs
+from pardem.sorted_runs import run_order
 from pardem.testing import brute_force_pairs
 
 
@@ -49,12 +50,18 @@ def test_carry_history_matches_by_gid_keys():
     np.testing.assert_array_equal(new_xi, [[2, 3], [0, 0], [4, 5], [6, 7], [0, 0]])
 
 
-def test_gid_order_sorts_any_number_of_ascending_runs():
+def test_run_order_sorts_any_number_of_ascending_runs_stably():
+    """The permutation of numpy's stable sort, for unique keys (gids) and for repeated keys
+    (history tables whose pair was sent by two ranks: the first occurrence stays first)."""
     rng = np.random.default_rng(3)
-    for runs in [1, 2, 3, 4, 7, 50]:
-        gid = rng.permutation(1000).astype(np.int64)
-        cuts = np.sort(rng.choice(np.arange(1, 1000), runs - 1, replace=False))
-        gid = np.concatenate([np.sort(part) for part in np.split(gid, cuts)])
-        np.testing.assert_array_equal(gid_order(gid, 1000), np.argsort(gid))
-        np.testing.assert_array_equal(gid_order(gid, 400), np.argsort(gid[:400]))
-    assert gid_order(np.zeros(0, np.int64), 0).size == 0
+    for runs in [1, 2, 3, 4, 7, 50, 1000]:
+        for keys in (rng.permutation(1000), rng.integers(0, 60, 1000)):
+            cuts = np.sort(rng.choice(np.arange(1, 1000), runs - 1, replace=False))
+            keys = np.concatenate([np.sort(part) for part in np.split(keys.astype(np.int64),
+                                                                      cuts)])
+            np.testing.assert_array_equal(run_order(keys, 1000),
+                                          np.argsort(keys, kind="stable"))
+            np.testing.assert_array_equal(run_order(keys, 400),
+                                          np.argsort(keys[:400], kind="stable"))
+    assert run_order(np.zeros(0, np.int64), 0).size == 0
+    assert run_order(np.array([5], np.int64), 1).tolist() == [0]

@@ -14,6 +14,7 @@ import numba as nb
 import numpy as np
 
 from ..jit import JIT, copy_values
+from ..sorted_runs import run_order
 
 SHIFT, LOW = 32, (1 << 32) - 1  # a pair's sort key: (gid_lo << 32) | gid_hi; gids < 2**31
 
@@ -73,7 +74,7 @@ def merge_history(lo, hi, xi, rows):
     for k in range(rows.shape[0]):
         key[lo.size + k] = (int(rows[k, 0]) << SHIFT) | int(rows[k, 1])
         copy_values(vals[lo.size + k], rows[k, 2:])
-    order = np.argsort(key, kind="mergesort")
+    order = run_order(key, n)  # the table, then each rank's springs: sorted runs
     m = 0
     for k in range(n):
         m += k == 0 or key[order[k]] != key[order[k - 1]]
@@ -85,7 +86,7 @@ def merge_history(lo, hi, xi, rows):
         if k == 0 or key[order[k]] != key[order[k - 1]]:
             out_lo[q] = key[order[k]] >> SHIFT
             out_hi[q] = key[order[k]] & LOW
-            out_xi[q] = vals[order[k]]
+            copy_values(out_xi[q], vals[order[k]])
             q += 1
     return out_lo, out_hi, out_xi
 

@@ -58,7 +58,7 @@ class Decomposition:
         # reach_width: largest free diameter + skin, the farthest a listed partner can be
         self.margin = margin
         self.ghost_width = reach_width + margin
-        self.drift = 0.0  # bound on any body's displacement since the last exchange (m)
+        self.x_exchanged = np.zeros((0, 2))  # owned and wall rows at the last exchange (m)
         self.n_exchanges = 0
         self.balance_threshold = balance_threshold
         self.sectors = sec.single()
@@ -136,20 +136,32 @@ class Decomposition:
         self.n_rebalanced += 1
 
     # -- neighbour build -------------------------------------------------------------------
-    def exchange_due(self, disp: float) -> bool:
-        """Call once per neighbour build, with the largest displacement since the last build
-        (global): it adds ``disp`` to the motion since the last exchange (``drift``, reset by
-        ``distribute``) and answers whether particles must migrate and ghosts be selected again,
-        or whether this rank may only rebuild its lists.
+    def exchange_due(self, x_local: np.ndarray) -> bool:
+        """Call once per neighbour build (collective), with the positions of the owned
+        particles and the wall disks (every wall disk placed at the current time): whether
+        particles must migrate and ghosts be selected again, or whether this rank may only
+        rebuild its lists.
 
         Why that is safe: the ghosts were selected ``margin`` wider than the reach of a listed
         pair, and every owned particle lay in the sector, so while no body has moved more than
         margin/2 since then, every partner of an owned particle within the reach is still here
-        (its distance to the sector then is at most reach + 2 x margin/2). The sum of the
-        builds' largest displacements bounds that motion. Every rank gets the same answer
-        (``disp`` is global)."""
-        self.drift += disp
-        return self.drift > 0.5 * self.margin
+        (its distance to the sector then is at most reach + 2 x margin/2), and the wall disks
+        the step loop moves still cover the sector (``order_walls``). The test takes each
+        body's own displacement since the exchange (the rows keep their order until the next
+        one), the largest over all ranks, so every rank gets the same answer. The sum of each
+        build's largest displacement bounds it too, but grows by about skin/2 per build
+        however little the bodies moved: a disk rattling in its cage triggers builds, not
+        exchanges."""
+        if x_local.shape != self.x_exchanged.shape:  # no exchange yet
+            moved = math.inf
+        else:
+            moved = sec.largest_move(x_local, self.x_exchanged)
+        return self.max(moved) > 0.5 * self.margin
+
+    def exchanged(self, x_local: np.ndarray) -> None:
+        """After an exchange, once its rows are stored (owned particles, then the wall disks,
+        all placed at the current time): where they are now."""
+        self.x_exchanged = x_local.copy()
 
     def distribute(self, ps, pairs, clock, counts: tuple[int, int, int], hist: int,
                    ring_walls: bool, history: History | None, t: float, prm,
@@ -171,7 +183,6 @@ class Decomposition:
             raise RuntimeError(f"MPI exchange of migrants and ghosts failed on rank {self.rank}")
         self.n_migrated += n_arrived
         self.n_exchanges += 1
-        self.drift = 0.0
         # every rank knows need: all take the same branches
         shared = self.shared_halo and need <= SHARED_HALO_LIMIT
         self.n_shared_exchanges += shared

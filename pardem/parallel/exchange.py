@@ -30,6 +30,7 @@ import numpy as np
 from ..contact.history import SHIFT, live_history, merge_history
 from ..jit import JIT, copy_values
 from ..neighbors import build_lists
+from ..sorted_runs import run_order
 from ..state import pack_particles, unpack_particles
 from ..walls import place_wall_disks
 from .halo import alltoallv, halo_buffers, peer_offsets
@@ -116,7 +117,7 @@ def send_rows(ps, pairs, n_owned, plan, from_list, history, handles):
                 dest[r, p] = True
                 n_rows[r] += 1
     leaving = np.flatnonzero(owner != rank)
-    order = np.argsort(ps.gid[leaving])
+    order = run_order(ps.gid[leaving], leaving.size)  # owned rows are gid-sorted: one run
     mig_gid, mig_dest = ps.gid[leaving][order], owner[leaving][order]
     spring_lo = np.empty(lo.size, np.int64)  # destination of each spring's partners (-1: none)
     spring_hi = np.empty(lo.size, np.int64)
@@ -221,7 +222,7 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
             at += 2 + hw
     for k in range(stay_idx.size):
         key[n_gh + k] = (owner[stay_idx[k]] << SHIFT) | ps.gid[stay_idx[k]]
-    ghosts = ghosts[np.argsort(key)]
+    ghosts = ghosts[run_order(key, key.size)]  # ascending runs: per sender, then the stayers
 
     moved = kept.size < n_owned or n_arr > 0
     own = np.empty((0, width))
@@ -231,7 +232,10 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
         pack_particles(ps, kept, own)
         for r in range(n_arr):
             copy_values(own[kept.size + r], arrivals[r])
-        own = own[np.argsort(own[:, 0])]  # column 0: gid
+        gids = np.empty(own.shape[0], np.int64)  # column 0: gid; kept, then each arrival run
+        for r in range(gids.size):
+            gids[r] = int(own[r, 0])
+        own = own[run_order(gids, gids.size)]
         walls = np.empty((n_local - n_owned, width))
         pack_particles(ps, np.arange(n_owned, n_local), walls)
     if n_sp:

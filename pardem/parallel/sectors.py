@@ -153,3 +153,14 @@ def imbalance(counts: np.ndarray) -> float:
     """Largest count over the mean, minus 1."""
     mean = counts.mean()
     return float(counts.max() / mean - 1.0) if mean > 0 else 0.0
+
+
+@nb.njit(**JIT)
+def largest_move(x, x0):
+    """The largest distance (m) between the rows of x and x0 ([n, 2] each, same order)."""
+    d2 = 0.0
+    for k in range(x.shape[0]):
+        dx = x[k, 0] - x0[k, 0]
+        dy = x[k, 1] - x0[k, 1]
+        d2 = max(d2, dx * dx + dy * dy)
+    return math.sqrt(d2)

@@ -69,8 +69,11 @@ class SerialDecomposition:
     def rebalance(self, x_owned: np.ndarray) -> None:
         pass
 
-    def exchange_due(self, disp: float) -> bool:
+    def exchange_due(self, x_local: np.ndarray) -> bool:
         return False
+
+    def exchanged(self, x_local: np.ndarray) -> None:
+        pass
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:
         return own_values[:0]
