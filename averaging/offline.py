@@ -16,7 +16,8 @@ import numpy as np
 from pardem.output.averages import ring_width as default_ring_width
 from pardem.output.snapshots import read_snapshots
 from pardem.scene import SceneError, load_scene
-from pardem.output.writers import sample_steps
+from pardem.output.writers import sample_range
+from pardem.schema import ring_width_problem
 from pardem.timestep import resolve_dt
 
 from .sample import snapshot_sample
@@ -36,16 +37,18 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
     start = start if start is not None else (cfg.start if cfg else 0.0)
     end = end if end is not None else (cfg.end if cfg else float("inf"))
     ring_width = ring_width or default_ring_width(scene)
+    why = ring_width_problem(ring_width, g.outer_radius - g.inner_radius)
+    if why:
+        raise SceneError(f"ring width {ring_width:g} m: {why}")
     weighting = weighting or (cfg.weighting if cfg else "slice")
     displacement = displacement or (cfg.displacement if cfg else "eta")
     dt = resolve_dt(scene)
-    every = max(1, int(round(scene.output.snapshot_interval / dt)))
-    if math.isfinite(end):
-        wanted = set(sample_steps(start, end, scene.output.snapshot_interval, dt).tolist())
+    every, k0, k1 = sample_range(start, end, scene.output.snapshot_interval, dt)
     avg = None
     for snap in read_snapshots(run_dir):
         step = snap["step"]
-        inside = step in wanted if math.isfinite(end) else step >= start / dt - every / 2
+        inside = (step % every == 0 and k0 * every <= step <= k1 * every if math.isfinite(end)
+                  else step >= start / dt - every / 2)
         if not inside:
             continue
         free = snap["kind"] == 0

@@ -18,6 +18,7 @@ collective.
 from __future__ import annotations
 
 import argparse
+import math
 import shutil
 import sys
 import time
@@ -35,7 +36,7 @@ def main(argv: list[str] | None = None) -> int:
     run = sub.add_parser("run", help="run a scene")
     run.add_argument("scene", help="scene file (TOML)")
     run.add_argument("--out", help="output folder (default: runs/<scene name>)")
-    run.add_argument("--end", type=float, help="end time in s (default: the scene's [time] end)")
+    run.add_argument("--end", type=seconds, help="end time in s (default: the scene's [time] end)")
     run.add_argument("--restart", help="checkpoint file (or run folder) to continue from")
     run.add_argument("--overwrite", action="store_true",
                      help="replace the run in the output folder (refused otherwise, except a "
@@ -50,9 +51,10 @@ def main(argv: list[str] | None = None) -> int:
     check.add_argument("scene", help="scene file (TOML)")
     avg = sub.add_parser("average", help="ring-average the snapshots of a run folder")
     avg.add_argument("run_dir", help="run folder (scene.toml + particles.h5)")
-    avg.add_argument("--start", type=float, help="s (default: the scene's [averaging] start)")
-    avg.add_argument("--end", type=float, help="s (default: the scene's [averaging] end)")
-    avg.add_argument("--ring-width", type=float, help="m (default: the scene's, or the smallest free diameter / 8)")
+    avg.add_argument("--start", type=seconds, help="s (default: the scene's [averaging] start)")
+    avg.add_argument("--end", type=seconds, help="s (default: the scene's [averaging] end)")
+    avg.add_argument("--ring-width", type=metres,
+                     help="m (default: the scene's, or the smallest free diameter / 8)")
     avg.add_argument("--weighting", choices=["slice", "exact", "centre", "gaussian"])
     avg.add_argument("--displacement", choices=["eta", "spring"],
                      help="tangential part of the contact displacement in eps and kappa: the "
@@ -185,6 +187,22 @@ def _check(args) -> int:
         sys.stderr.write(f"pardem: error: {in_file(e, args.scene)}\n")
         return 2
     return 0
+
+
+def seconds(text: str) -> float:
+    """A time on the command line: finite and >= 0 (argparse reports the error in one line)."""
+    value = float(text)  # argparse turns a ValueError into "invalid seconds value"
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"{text}: expected a finite time in seconds, >= 0")
+    return value
+
+
+def metres(text: str) -> float:
+    """A length on the command line: finite and > 0."""
+    value = float(text)
+    if not (math.isfinite(value) and value > 0):
+        raise argparse.ArgumentTypeError(f"{text}: expected a finite length in metres, > 0")
+    return value
 
 
 def in_file(error: Exception, scene_path: str) -> str:

@@ -185,7 +185,7 @@ class TimeCfg:
     in those forces and no weighting, as in LAMMPS GRANULAR; docs/accuracy.md compares them)."""
 
     dt: float | None = key(None, "s", ">0")
-    dt_per_contact: float = key(50.0, "", ">=5")
+    dt_per_contact: float = key(50.0, "", ">=5 <=1e6")
     end: float = key(239.0, "s", ">0")
     integrator: str = key("verlet", rule="verlet|verlet-halfstep")
 

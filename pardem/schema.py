@@ -85,6 +85,9 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
     info = _parse(d["scene"], "scene", "[scene]")
     if info["name"] is None:
         info["name"] = Path(source).stem if source else "scene"
+    why = name_problem(info["name"])
+    if why:
+        raise fail("[scene]", "name", info["name"], why)
     kind = info["kind"]
     opt = {t: _parse(d.get(t, {}), t, f"[{t}]")
            for t in ("contact", "effects", "time", "neighbors", "output")}
@@ -109,9 +112,10 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
         _check_counts(species, g["volume_fraction"] is not None)
         species, geometry = _counts(species, _geometry(g, species))
         gap = geometry.outer_radius - geometry.inner_radius
-        if averaging is not None and (averaging.ring_width or 0.0) > gap:
-            raise fail("[averaging]", "ring_width", averaging.ring_width,
-                       f"wider than the gap outer_radius - inner_radius = {gap:.6g} m", "m")
+        if averaging is not None and averaging.ring_width is not None:
+            why = ring_width_problem(averaging.ring_width, gap)
+            if why:
+                raise fail("[averaging]", "ring_width", averaging.ring_width, why, "m")
     else:
         for t in ("species", "geometry"):
             if t in d:
@@ -161,7 +165,30 @@ def _check_counts(species: tuple[Species, ...], filling: bool) -> None:
                              "volume_fraction with a share per species)")
 
 
+def name_problem(name: str) -> str | None:
+    """Why ``name`` cannot name a run (its default folder is runs/<name>), or None."""
+    if not name.strip():
+        return "empty; give a name (the default run folder is runs/<name>)"
+    if name in (".", "..") or any(c in name for c in "/\\"):
+        return "a name, not a path (no / or \\, not . or ..): the run folder is runs/<name>"
+    if any(ord(c) < 0x20 or ord(c) == 0x7F for c in name):
+        return "control characters are not allowed"
+    return None
+
+
 HEXAGONAL_PACKING = math.pi / (2.0 * math.sqrt(3.0))
+MAX_RINGS = 100_000
+"""The most rings an averaging may have (a ring holds a row of sums per sample)."""
+
+
+def ring_width_problem(width: float, gap: float) -> str | None:
+    """Why rings of ``width`` (m) cannot cover a gap of ``gap`` (m), or None."""
+    if width > gap:
+        return f"wider than the gap outer_radius - inner_radius = {gap:.6g} m"
+    if gap / width > MAX_RINGS:
+        return (f"{gap / width:.3g} rings across the gap of {gap:.6g} m; at most {MAX_RINGS} "
+                f"(ring_width >= {gap / MAX_RINGS:.3g} m)")
+    return None
 
 
 def densest_packing(species: tuple[Species, ...]) -> tuple[float, str]:

@@ -282,8 +282,8 @@ class Simulation(StateViews):
         one, up to ``end_step``; its samples so far are kept (a later run() continues them)."""
         if self.rings is None:
             return []
-        steps = sample_grid(self.scene, self.dt)
-        steps = steps[(steps <= end_step) & (steps > self.step)]
+        steps = sample_grid(self.scene, self.dt, end_step)
+        steps = steps[steps > self.step]
         return [RingSamples(At(steps), self.rings, self.out_dir)]
 
     def advance_steps(self, n: int) -> None:

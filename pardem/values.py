@@ -62,11 +62,18 @@ def value(label: str, key: str, v: Any, kind: str, unit: str) -> Any:
 
 
 def rule_ok(v: Any, rule: str) -> tuple[bool, str]:
+    """Whether ``v`` obeys ``rule`` ("a|b|c": one of; ">x", ">=x", "<=x"; several
+    space-separated bounds must all hold), and what the rule says."""
     if "|" in rule:
         opts = rule.split("|")
         return v in opts, "must be one of " + ", ".join(repr(o) for o in opts)
-    op, bound = (">=", rule[2:]) if rule.startswith(">=") else (">", rule[1:])
-    return (v >= float(bound) if op == ">=" else v > float(bound)), f"must be {op} {bound}"
+    for part in rule.split():
+        op = next(o for o in (">=", "<=", ">") if part.startswith(o))
+        bound = float(part[len(op):])
+        ok = v >= bound if op == ">=" else (v <= bound if op == "<=" else v > bound)
+        if not ok:
+            return False, f"must be {op} {part[len(op):]}"
+    return True, ""
 
 
 def fail(label: str, key: str, v: Any, why: str, unit: str = "") -> SceneError:

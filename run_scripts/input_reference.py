@@ -64,8 +64,9 @@ def _allowed(rule: str) -> str:
         return ""
     if "|" in rule:
         return "one of " + ", ".join(f'`"{o}"`' for o in rule.split("|"))
-    op, bound = (">=", rule[2:]) if rule.startswith(">=") else (">", rule[1:])
-    return f"{'≥' if op == '>=' else '>'} {bound}"
+    signs = {">=": "≥", "<=": "≤", ">": ">"}
+    return ", ".join(f"{signs[op]} {part[len(op):]}" for part in rule.split()
+                     for op in [next(o for o in signs if part.startswith(o))])
 
 
 def _default(f: dataclasses.Field) -> str:

@@ -319,3 +319,15 @@ def test_default_ring_width_follows_the_smallest_diameter():
         {"name": "s", "diameter": 2e-3, "mass": 1e-5, "count": 10},
         {"name": "l", "diameter": 3e-3, "mass": 2e-5, "count": 10}]})
     assert ring_width(small) == 2e-3 / 8
+
+
+def test_sample_steps_stop_at_the_runs_last_step():
+    """An [averaging] end far past the run (1e12 s) allocates nothing beyond the run: with
+    dt = 1e-4 s and samples every 0.05 s (500 steps), from 0.1 s (step 1000) to the run's last
+    step 2600, the samples are steps 1000, 1500, 2000, 2500."""
+    from pardem.output.writers import sample_steps
+
+    got = sample_steps(0.1, 1e12, 0.05, 1e-4, last_step=2600)
+    assert got.tolist() == [1000, 1500, 2000, 2500]
+    assert sample_steps(0.1, 0.2, 0.05, 1e-4, last_step=10**12).tolist() == [1000, 1500, 2000]
+    assert sample_steps(0.1, math.inf, 0.05, 1e-4, last_step=2600).size == 0

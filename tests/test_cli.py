@@ -153,3 +153,31 @@ def test_warmup_runs_every_writer_of_a_scene(capsys):
     assert main(["warmup", str(scene)]) == 0
     out, err = capsys.readouterr()
     assert "small_dilute.toml: kernels ready in" in out and "note" not in err
+
+
+@pytest.mark.parametrize("args,message", [
+    (["run", "s.toml", "--end", "nan"], "argument --end: nan: expected a finite time in seconds"),
+    (["run", "s.toml", "--end", "inf"], "argument --end: inf: expected a finite time in seconds"),
+    (["run", "s.toml", "--end", "-1"], "argument --end: -1: expected a finite time in seconds"),
+    (["average", "d", "--start=-inf"], "argument --start: -inf: expected a finite time"),
+    (["average", "d", "--ring-width", "0"],
+     "argument --ring-width: 0: expected a finite length in metres, > 0"),
+    (["average", "d", "--ring-width=-1e-3"], "argument --ring-width: -1e-3: expected a finite"),
+    (["average", "d", "--ring-width", "nan"], "argument --ring-width: nan: expected a finite"),
+    (["average", "d", "--ring-width", "inf"], "argument --ring-width: inf: expected a finite"),
+])
+def test_nonsense_times_and_widths_on_the_command_line_are_refused(args, message, capsys):
+    """One usage line and exit status 2, before anything is read or run."""
+    with pytest.raises(SystemExit) as stop:
+        main(args)
+    assert stop.value.code == 2
+    assert message in capsys.readouterr().err
+
+
+def test_a_ring_width_for_more_rings_than_allowed_is_refused_offline(tmp_path, capsys):
+    """pardem average --ring-width 1e-12 names the ring count instead of allocating TiB."""
+    scene = (Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml").read_text()
+    (tmp_path / "scene.toml").write_text(scene)
+    assert main(["average", str(tmp_path), "--ring-width", "1e-12"]) == 2
+    err = capsys.readouterr().err
+    assert "ring width 1e-12 m: 1.49e+11 rings across the gap of 0.149 m; at most 100000" in err

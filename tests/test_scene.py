@@ -142,6 +142,17 @@ BAD_COUETTE = [
      r"[[particles]]: not allowed in a couette scene"),
     ("particles_file", "init.csv", r"particles_file: not allowed in a couette scene"),
     ("bogus", {}, r"unknown top-level table or key 'bogus'"),
+    # the name is the default run folder runs/<name>: a name, never a path
+    ("scene.name", "../../etc/x", r"[scene] name = '../../etc/x': a name, not a path"),
+    ("scene.name", "/tmp/x", r"[scene] name = '/tmp/x': a name, not a path"),
+    ("scene.name", "..", r"[scene] name = '..': a name, not a path"),
+    ("scene.name", "a\\b", r"[scene] name = 'a\\b': a name, not a path"),
+    ("scene.name", " ", r"[scene] name = ' ': empty"),
+    ("scene.name", "a\x00b", r"[scene] name = 'a\x00b': control characters are not allowed"),
+    ("time.dt_per_contact", 1e300, r"[time] dt_per_contact = 1e+300: must be <= 1e6"),
+    # a ring per 1.5 um at most: 0.149 m / 1e5
+    ("averaging.ring_width", 1e-12,
+     r"[averaging] ring_width = 1e-12: 1.49e+11 rings across the gap of 0.149 m; at most 100000"),
 ]
 
 
@@ -296,11 +307,13 @@ def test_shipped_scene_values():
 @pytest.mark.parametrize("maker", ["couette", "free", "B", "two_small"])
 def test_toml_round_trip(tmp_path, maker):
     if maker == "couette":
-        s = scene_from_dict({**couette_dict(), "averaging": {"weighting": "exact"}})
+        d = couette_dict()
+        d["species"][0]["name"] = 'odd "small" \\ with\tcontrol ü'  # escaped in TOML
+        s = scene_from_dict({**d, "averaging": {"weighting": "exact"}})
     elif maker == "free":
         d = free_dict()
         d["particles"][0].update(x=-0.1 / 3, omega=1e-300)
-        d["scene"]["name"] = 'odd "name" \\ with\tcontrol ü'
+        d["scene"]["name"] = 'odd "name" ü'  # a name: no path separators or control characters
         d["time"]["dt"] = 1.234567890123e-5
         s = scene_from_dict(d)
     elif maker == "B":

@@ -51,11 +51,12 @@ def ring_width(scene) -> float:
             else scene.min_free_diameter / 8.0)
 
 
-def sample_grid(scene, dt: float) -> np.ndarray:
-    """Every step the scene's [averaging] samples at (the snapshot rule: multiples of
-    round(sample_interval/dt), so offline averaging of snapshots sees the same states)."""
+def sample_grid(scene, dt: float, last_step: int) -> np.ndarray:
+    """Every step up to ``last_step`` the scene's [averaging] samples at (the snapshot rule:
+    multiples of round(sample_interval/dt), so offline averaging of snapshots sees the same
+    states)."""
     cfg = scene.averaging
-    return sample_steps(cfg.start, cfg.end, cfg.sample_interval, dt)
+    return sample_steps(cfg.start, cfg.end, cfg.sample_interval, dt, last_step)
 
 
 def layout(avg, scene) -> dict:
@@ -86,8 +87,7 @@ def resume(avg, scene, dt: float, step: int, saved: dict, path, log) -> None:
             log(f"restart from {path}: this scene has no [averaging] table; the checkpoint's "
                 f"{len(saved['rings_times'])} ring samples are not continued")
         return
-    wanted = sample_grid(scene, dt)
-    wanted = wanted[wanted <= step]
+    wanted = sample_grid(scene, dt, step)
     t_ckpt = step * dt
     if "rings_layout" not in saved:
         if wanted.size:

@@ -106,10 +106,19 @@ class RingSamples(Writer):
             self.averager.write(self.out_dir)
 
 
-def sample_steps(start: float, end: float, interval: float, dt: float) -> np.ndarray:
-    """Steps k * every (every = round(interval/dt)) for k from round(start/(every dt)) to
-    round(end/(every dt)): evenly spaced samples that coincide with snapshots of that interval."""
+def sample_range(start: float, end: float, interval: float, dt: float) -> tuple[int, int, int]:
+    """(every, k0, k1): the sample steps are k * every for k0 <= k <= k1, every =
+    round(interval/dt), k0 = round(start/(every dt)), k1 = round(end/(every dt)) (k0 - 1 for an
+    infinite end: none)."""
     every = max(1, int(round(interval / dt)))
     k0 = int(round(start / (every * dt)))
     k1 = int(round(end / (every * dt))) if math.isfinite(end) else k0 - 1
-    return every * np.arange(k0, k1 + 1, dtype=np.int64)
+    return every, k0, k1
+
+
+def sample_steps(start: float, end: float, interval: float, dt: float,
+                 last_step: int) -> np.ndarray:
+    """The steps of ``sample_range`` up to ``last_step``: evenly spaced samples that coincide
+    with snapshots of that interval (an [averaging] end far past the run allocates nothing)."""
+    every, k0, k1 = sample_range(start, end, interval, dt)
+    return every * np.arange(k0, min(k1, last_step // every) + 1, dtype=np.int64)
