@@ -117,11 +117,11 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
             if why:
                 raise fail("[averaging]", "ring_width", averaging.ring_width, why, "m")
     else:
-        for t in ("species", "geometry"):
+        for t in ("species", "geometry", "averaging"):
             if t in d:
-                name = "[[species]]" if t == "species" else "[geometry]"
+                name = "[[species]]" if t == "species" else f"[{t}]"
                 raise SceneError(f"{name}: not allowed in a free scene (explicit particles, "
-                                 "no rings)")
+                                 "no rings to average over)")
         if "particles" in d and "particles_file" in d:
             raise SceneError("[[particles]] and particles_file: give one or the other, not both")
         if "particles" in d:

@@ -120,6 +120,7 @@ class WallLayout(NamedTuple):
 
 
 MAX_DISKS_PER_DIAMETER = 100  # more wall disks than this along one disk diameter: refused
+MAX_WALL_DISKS = 1_000_000  # per ring (9e6 disks of 0.1 um stalled the first neighbour build)
 
 
 def wall_layout(g, ring: str) -> WallLayout:
@@ -152,6 +153,9 @@ def check_layout(g, ring: str, smallest_free: float):
     must keep every free disk in the cell: the gap between neighbours, at the largest radius
     they reach (the outer ring starts extended), must be narrower than the smallest free disk."""
     w = wall_layout(g, ring)
+    if w.count > MAX_WALL_DISKS:
+        return (f"{ring}_wall_count", w.count, f"more than {MAX_WALL_DISKS} disks on a ring "
+                f"(diameter {w.diameter!r} m; every rank holds and moves them)")
     if w.count > MAX_DISKS_PER_DIAMETER * 2.0 * math.pi * w.radius / w.diameter:
         return (f"{ring}_wall_count", w.count, f"more than {MAX_DISKS_PER_DIAMETER} disks per "
                 f"wall-disk diameter along the ring (circumference {2 * math.pi * w.radius:.6g} m"

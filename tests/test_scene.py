@@ -190,7 +190,10 @@ def test_bad_couette_value(path, value, message):
     ({"geometry.inner_wall_diameter": 0.2},
      "[geometry] inner_wall_diameter = 0.2: must be < outer_radius - inner_radius = 0.149"),
     ({"geometry.inner_wall_count": 10**7},
-     "[geometry] inner_wall_count = 10000000: more than 100 disks per wall-disk diameter"),
+     "[geometry] inner_wall_count = 10000000: more than 1000000 disks on a ring"),
+    # 2 pi 0.1035 m / 2.5 mm = 260 diameters along the inner ring: 26,000 disks at most
+    ({"geometry.inner_wall_count": 30_000},
+     "[geometry] inner_wall_count = 30000: more than 100 disks per wall-disk diameter"),
 ])
 def test_bad_couette_combination(changes, message):
     d = couette_dict()
@@ -211,6 +214,7 @@ BAD_FREE = [
     ("species", [{"name": "s", "diameter": D_S, "mass": M_S, "count": 1}],
      "[[species]]: not allowed in a free scene"),
     ("geometry", {}, "[geometry]: not allowed in a free scene"),
+    ("averaging", {}, "[averaging]: not allowed in a free scene (explicit particles, no rings"),
     ("particles", DELETE, "[[particles]] missing"),
     ("particles_file", "init.csv", "[[particles]] and particles_file: give one or the other"),
     ("particles.1.diameter", -1.0, "[[particles]] #1 diameter = -1.0: must be > 0 (m)"),
@@ -398,6 +402,17 @@ def test_particles_file_errors(tmp_path):
         load("e.csv", "x,y,diameter,mass\n0,zero,0.007,0.0003\n")
     with pytest.raises(SceneError, match=r"expected a .csv or .h5"):
         load("f.txt", "x\n")
+    with pytest.raises(SceneError, match=r"column 'x' appears more than once in the header"):
+        load("g.csv", "x,y,x,diameter,mass\n0,0,1,0.007,0.0003\n")
+    with pytest.raises(SceneError, match=r"particles_file = 'h.h5': not a readable HDF5 file"):
+        load("h.h5", "x,y\n0,0\n")  # text under an .h5 name
+    import h5py
+
+    with h5py.File(tmp_path / "i.h5", "w") as f:
+        f["x"] = np.array([b"a", b"b"])
+    with pytest.raises(SceneError, match=r"particles_file = 'i.h5': 'x' holds \|S1 values; "
+                                         r"expected numbers"):
+        load("i.h5")
 
 
 def test_load_scene_file_errors(tmp_path):
@@ -502,3 +517,31 @@ def test_volume_fraction_and_counts_errors(geometry, species, message):
          "species": [{"name": "s", "diameter": 7.42e-3, "mass": 2.75e-4, **species}]}
     with pytest.raises(SceneError, match=re.escape(message)):
         scene_from_dict(d)
+
+
+def test_overlap_check_with_a_few_much_larger_disks_equals_brute_force():
+    """Disks over 4x the median diameter are checked against every disk, outside the cell grid
+    (which would otherwise take the large diameter as its cell side): the same verdict as
+    comparing every pair, for scenes with and without overlaps involving the large disks."""
+    from pardem.particles_input import _worst_pair
+
+    rng = np.random.default_rng(5)
+    for trial in range(40):
+        n = 300
+        x, y = rng.uniform(0, 0.05, n), rng.uniform(0, 0.05, n)
+        d = np.full(n, 1e-3)
+        d[:3] = rng.uniform(0.01, 0.03, 3)  # three large disks
+        dist = np.hypot(x[:, None] - x[None], y[:, None] - y[None])
+        over = 0.5 * (d[:, None] + d[None]) - dist > 0.01 * np.minimum(d[:, None], d[None])
+        np.fill_diagonal(over, False)
+        pair = _worst_pair(x, y, d)
+        assert (pair is None) == (not over.any()), trial
+        if pair is not None:
+            assert pair[0] < pair[1] and over[pair], trial
+    # none overlapping: small disks on a lattice, one large disk away from them
+    g = np.arange(400)
+    x, y = np.append((g % 20) * 1.2e-3, -0.6), np.append((g // 20) * 1.2e-3, 0.0)
+    d = np.append(np.full(400, 1e-3), 1.0)
+    assert _worst_pair(x, y, d) is None
+    x[-1] = -0.499  # now it reaches the first column of the lattice
+    assert _worst_pair(x, y, d) == (0, 400)
