@@ -12,7 +12,7 @@ from __future__ import annotations
 import math
 
 from .scene import Scene, scene_to_toml
-from .timestep import resolve_dt, smallest_contact_time
+from .timestep import resolve_dt, smallest_contact_time, stability_limit
 from .walls import global_volume_fraction
 
 REFERENCE_RATE = 25e6
@@ -35,10 +35,13 @@ def describe(scene: Scene) -> str:
          else len(scene.particles))
     steps = int(round(scene.time.end / dt))
     work = n * steps
+    limit, mode = stability_limit(scene)
     lines = [scene_to_toml(scene).rstrip(), "",
              f"# particles (free): {n}",
              f"# contact time of the lightest pair t_c = {t_c:.6g} s; dt = {dt:.6g} s "
-             f"= t_c / {t_c / dt:.4g}"]
+             f"= t_c / {t_c / dt:.4g}",
+             f"# stability limit dt <= {limit:.4g} s = t_c / {t_c / limit:.3g} (a fifth of the "
+             f"half period of the stiffest mode, {mode}): dt is {limit / dt:.3g} x below it"]
     nu = volume_fraction(scene)
     if nu is not None:
         lines.append(f"# global volume fraction (free disks + half of each wall disk, at the "

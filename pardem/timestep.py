@@ -103,17 +103,76 @@ def check_wall_speeds(scene: Scene) -> None:
                 f"{bound:.4g} {unit}, or a stiffer k_n")
 
 
+STEPS_PER_MODE = 5.0
+"""The step may not exceed (pi/omega)/5 of the stiffest enabled contact mode: five steps per
+half period (velocity Verlet itself turns unstable at omega dt = 2, i.e. 1.6 steps per half
+period, for one contact; many contacts on a disk raise the stiffest frequency of the packing)."""
+
+
+def _pair_kinds(scene: Scene) -> list[tuple[float, float, int]]:
+    """(radius m, mass kg, count) of each kind of free disk."""
+    if scene.particles is not None:
+        rows = np.column_stack([0.5 * np.asarray(scene.particles.diameter, float),
+                                np.asarray(scene.particles.mass, float)])
+        kinds, counts = np.unique(rows, axis=0, return_counts=True)
+        return [(float(a), float(m), int(c)) for (a, m), c in zip(kinds, counts)]
+    return [(0.5 * s.diameter, s.mass, s.count) for s in scene.species if s.count > 0]
+
+
+def contact_modes(scene: Scene) -> list[tuple[str, float]]:
+    """(what, half period pi/omega in s) of each contact mode the scene's effects enable, for
+    the pair that makes it stiffest. The normal spring's is the damped t_c of the lightest pair.
+    A sticking tangential spring k_t moves the contact point through both translation and
+    rotation: 1/m_eff = 1/m_i + 1/m_j + a_i^2/I_i + a_j^2/I_j = 3/m_red for disks (I = m a^2/2),
+    1/m_red without rotation. The rolling spring k_r acts on the relative rotation through the
+    reduced radius a' = a_i a_j/(a_i + a_j): omega^2 = k_r a'^2 (1/I_i + 1/I_j)."""
+    c, e = scene.contact, scene.effects
+    m_red = smallest_reduced_mass(scene)
+    modes = [("the normal spring k_n (t_c of the lightest pair)", smallest_contact_time(scene))]
+    if e.tangential_friction:
+        share = 3.0 if e.rotation else 1.0
+        what = ("the sticking tangential spring with rotation, omega^2 = 3 k_t/m_red"
+                if e.rotation else "the sticking tangential spring, omega^2 = k_t/m_red")
+        modes.append((what, math.pi / math.sqrt(share * c.k_t / m_red)))
+    if e.rolling_resistance and e.rotation and c.k_r > 0:
+        kinds = _pair_kinds(scene)
+        if len(kinds) > 64:  # bound: a'^2 (1/I_i + 1/I_j) < 2/m_red
+            w2 = 2.0 * c.k_r / m_red
+        else:
+            w2 = max(c.k_r * (ai * aj / (ai + aj)) ** 2 * 2.0 * (1 / (mi * ai**2) + 1 / (mj * aj**2))
+                     for i, (ai, mi, ni) in enumerate(kinds) for j, (aj, mj, _) in enumerate(kinds)
+                     if i != j or ni >= 2) if len(kinds) > 1 or kinds[0][2] >= 2 else 0.0
+        if w2 > 0:
+            modes.append(("the rolling spring, omega^2 = k_r a'^2 (1/I_i + 1/I_j)",
+                          math.pi / math.sqrt(w2)))
+    return modes
+
+
+def stability_limit(scene: Scene) -> tuple[float, str]:
+    """The largest admitted step (s), (pi/omega)/STEPS_PER_MODE of the stiffest enabled mode,
+    and that mode."""
+    what, half = min(contact_modes(scene), key=lambda m: m[1])
+    return half / STEPS_PER_MODE, what
+
+
 def resolve_dt(scene: Scene) -> float:
     """The run's time step (s): [time] dt, or t_c / dt_per_contact when dt = "auto".
 
-    Raises SceneError when dt > t_c/5 (a contact would be resolved by fewer than five steps) or
-    when a ring moves too fast for the contact law (``check_wall_speeds``).
+    Raises SceneError when dt exceeds ``stability_limit`` (five steps per half period of the
+    stiffest enabled contact mode: for frictional disks the sticking tangential spring with
+    rotation, 3 k_t against k_n) or when a ring moves too fast for the contact law
+    (``check_wall_speeds``).
     """
     check_wall_speeds(scene)
     t_c = smallest_contact_time(scene)
     dt = scene.time.dt if scene.time.dt is not None else t_c / scene.time.dt_per_contact
-    if dt > t_c / 5.0:
+    limit, what = stability_limit(scene)
+    if dt > limit:
+        key = "dt" if scene.time.dt is not None else "dt_per_contact"
+        given = f"{dt:.6g}" if key == "dt" else f"{scene.time.dt_per_contact:g} (dt = {dt:.4g} s)"
         raise SceneError(
-            f"[time] dt = {dt:.6g} s exceeds t_c/5 = {t_c / 5.0:.3g} s (t_c = {t_c:.4g} s for the "
-            'smallest pair); use a smaller dt or dt = "auto"')
+            f"[time] {key} = {given}: dt exceeds the stability limit {limit:.4g} s = "
+            f"(pi/omega)/{STEPS_PER_MODE:g} of the stiffest contact mode, {what} (pi/omega = "
+            f"{STEPS_PER_MODE * limit:.4g} s); use dt <= {limit:.4g} s, i.e. dt_per_contact >= "
+            f"{t_c / limit:.3g} (t_c = {t_c:.4g} s)")
     return dt

@@ -287,6 +287,7 @@ class Study:
                 f"t_c/{ns[k50]} its e_n error is {v['collision'][k50]['e_n']:.1e} against "
                 f"{hs['collision'][k50]['e_n']:.1e} for the plain half-step Verlet of LAMMPS "
                 f"GRANULAR, for {extra:+.0f} % of the time per step; its orders in table 1.")
+            md.append(stability_line(ns))
         if "skin" in r:
             rows = r["skin"]["rows"]
             best = min(range(len(rows)), key=lambda k: rows[k]["step_s"])
@@ -328,6 +329,24 @@ class Study:
         (self.out / "accuracy.md").write_text("\n".join(self.md) + "\n")
         (self.fig_dir / "results.json").write_text(json.dumps(self.results, indent=1,
                                                               default=_plain))
+
+
+def stability_line(ns) -> str:
+    """Where the default step sits against the stability limit of the paper's material (from
+    the scene, pardem.timestep.stability_limit; ``ns``: table 1's dt = t_c/N)."""
+    from pardem.scene import load_scene
+    from pardem.timestep import smallest_contact_time, stability_limit
+
+    scene = load_scene(Path(__file__).parent / "couette_B.toml")
+    t_c = smallest_contact_time(scene)
+    limit, mode = stability_limit(scene)
+    c = scene.contact
+    return (f"- **the stability limit** is dt ≤ t_c/{t_c / limit:.3g} for the paper's material "
+            f"(`pardem check` prints it): a fifth of the half period of its stiffest contact "
+            f"mode, {mode} (3 k_t = {3 * c.k_t:.0f} N/m against k_n = {c.k_n:g} N/m). The default "
+            f"t_c/50 "
+            f"sits {50 / (t_c / limit):.3g}× below it, table 1's coarsest "
+            f"t_c/{min(ns)} {min(ns) / (t_c / limit):.2g}× below.")
 
 
 def _plain(v):

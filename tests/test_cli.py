@@ -181,3 +181,14 @@ def test_a_ring_width_for_more_rings_than_allowed_is_refused_offline(tmp_path, c
     assert main(["average", str(tmp_path), "--ring-width", "1e-12"]) == 2
     err = capsys.readouterr().err
     assert "ring width 1e-12 m: 1.49e+11 rings across the gap of 0.149 m; at most 100000" in err
+
+
+def test_check_prints_the_step_and_the_stability_limit(capsys):
+    """pardem check on the paper's B: dt = t_c/50, and the limit set by the sticking tangential
+    spring with rotation, t_c/8.36 (tests/test_scene.py derives 0.2603 ms from 3 k_t/m_red)."""
+    assert main(["check", str(Path(__file__).parents[1] / "run_scripts" / "couette_B.toml")]) == 0
+    out = capsys.readouterr().out
+    assert "dt = 4.35308e-05 s = t_c / 50" in out
+    assert ("# stability limit dt <= 0.0002603 s = t_c / 8.36 (a fifth of the half period of "
+            "the stiffest mode, the sticking tangential spring with rotation") in out
+    assert "dt is 5.98 x below it" in out
