@@ -189,6 +189,17 @@ def _check(args) -> int:
     return 0
 
 
+UNREADABLE = (OSError, KeyError, ValueError, TypeError, IndexError)
+"""What h5py and numpy raise on a damaged or foreign output file."""
+
+
+def unreadable(run_dir, error: Exception) -> str:
+    """One line for output files that cannot be read (not HDF5, truncated, another format)."""
+    text = str(error).strip('"') or type(error).__name__
+    return (f"{run_dir}: its output files cannot be read ({text}); is it a pardem run folder, "
+            "written completely?")
+
+
 def seconds(text: str) -> float:
     """A time on the command line: finite and >= 0 (argparse reports the error in one line)."""
     value = float(text)  # argparse turns a ValueError into "invalid seconds value"
@@ -226,6 +237,9 @@ def _average(args) -> int:
     except (SceneError, FileNotFoundError) as e:
         sys.stderr.write(f"pardem: error: {e}\n")
         return 2
+    except UNREADABLE as e:
+        sys.stderr.write(f"pardem: error: {unreadable(args.run_dir, e)}\n")
+        return 2
     sys.stderr.write(f"pardem: {len(avg.samples)} snapshots averaged into {avg.n_rings} rings: "
                      f"{out / 'rings.csv'}\n")
     return 0
@@ -243,15 +257,16 @@ def _plot(args) -> int:
     runs = []
     for d, label in zip(args.run_dirs, labels):
         d = Path(d)
-        if not (d / "rings.h5").exists():
-            found = d / "offline" / "rings.h5"
-            if not found.exists():
-                sys.stderr.write(f"pardem: error: {d}: no rings.h5 (run a scene with an "
-                                 "[averaging] table, or `pardem average` it first)\n")
-                return 2
-            runs.append(load_run(found.parent, label=label or d.name))
-        else:
-            runs.append(load_run(d, label=label))
+        where = d if (d / "rings.h5").exists() else d / "offline"
+        if not (where / "rings.h5").exists():
+            sys.stderr.write(f"pardem: error: {d}: no rings.h5 (run a scene with an "
+                             "[averaging] table, or `pardem average` it first)\n")
+            return 2
+        try:
+            runs.append(load_run(where, label=label or (d.name if where != d else None)))
+        except UNREADABLE as e:
+            sys.stderr.write(f"pardem: error: {unreadable(where, e)}\n")
+            return 2
     out = Path(args.out) if args.out else Path(args.run_dirs[0]) / "figures"
     for path in make_figures(runs, out):
         print(path)

@@ -150,11 +150,12 @@ def _worst_pair_grid(x: np.ndarray, y: np.ndarray, d: np.ndarray) -> tuple[int, 
     if n < 2:
         return None
     h = float(d.max())
+    # the spread is checked in floating point, before a cast to int64 could overflow
+    if max(x.max() - x.min(), y.max() - y.min()) / h >= 2**30 - 2:
+        raise SceneError("[[particles]]: positions spread over more than 1e9 diameters")
     cx = np.floor((x - x.min()) / h).astype(np.int64)
     cy = np.floor((y - y.min()) / h).astype(np.int64) + 1  # +1: offset dcy = -1 stays >= 0
     ny = int(cy.max()) + 2
-    if cx.max() >= 2**30 or ny >= 2**30:
-        raise SceneError("[[particles]]: positions spread over more than 1e9 diameters")
     key = cx * ny + cy
     order = np.argsort(key, kind="stable")
     ks = key[order]

@@ -192,3 +192,24 @@ def test_check_prints_the_step_and_the_stability_limit(capsys):
     assert ("# stability limit dt <= 0.0002603 s = t_c / 8.36 (a fifth of the half period of "
             "the stiffest mode, the sticking tangential spring with rotation") in out
     assert "dt is 5.98 x below it" in out
+
+
+def test_average_and_plot_of_damaged_output_files_say_so_in_one_line(tmp_path, capsys):
+    """Output files that are not HDF5, or HDF5 without pardem's layout: exit 2 and one line
+    naming the folder, no traceback."""
+    import h5py
+
+    scene = (Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml").read_text()
+    (tmp_path / "scene.toml").write_text(scene)
+    (tmp_path / "particles.h5").write_text("not HDF5")
+    (tmp_path / "rings.h5").write_text("not HDF5")
+    for command in (["average", str(tmp_path)], ["plot", str(tmp_path)]):
+        assert main(command) == 2
+        err = capsys.readouterr().err
+        assert err.startswith(f"pardem: error: {tmp_path}: its output files cannot be read (")
+        assert len(err.splitlines()) == 1 and "Traceback" not in err
+    (tmp_path / "particles.h5").unlink()
+    with h5py.File(tmp_path / "particles.h5", "w") as f:
+        f.create_group("snapshots/000001")  # a snapshot without its time and arrays
+    assert main(["average", str(tmp_path)]) == 2
+    assert "its output files cannot be read" in capsys.readouterr().err

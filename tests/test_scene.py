@@ -226,6 +226,14 @@ BAD_FREE = [
     ("particles.1.x", -5e-3, "[[particles]] #0 and #1: identical positions"),
     ("particles.1.x", 0.0, "[[particles]] #0 and #1 overlap by"),
     ("particles", [], "[[particles]]: expected a non-empty array of tables"),
+    # cell indices would overflow int64 before any size check on them
+    ("particles.1.x", 1e200, "[[particles]]: positions spread over more than 1e9 diameters"),
+    ("particles.0.y", -1e300, "[[particles]]: positions spread over more than 1e9 diameters"),
+    # d sqrt(k_n/m) = 7.42e-3 sqrt(352.1/0.275e-3) = 8.396 m/s: faster disks pass through others
+    ("particles.1.vx", 1e200, "[[particles]] #1: moves at 1e+200 m/s (velocity and spin at its "
+                              "rim); a head-on hit at that speed would overlap a resting partner "
+                              "by up to 1.19e+199 diameters"),
+    ("particles.0.omega", 2300.0, "[[particles]] #0: moves at 8.58 m/s"),  # 0.05 + 2300 a
 ]
 
 
