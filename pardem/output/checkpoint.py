@@ -57,17 +57,56 @@ def load_checkpoint(path: str | os.PathLike) -> tuple[dict[str, np.ndarray], dic
             if h5.attrs.get("format") != "pardem-checkpoint":
                 raise SceneError(f"--restart {path}: not a pardem checkpoint")
             attrs = dict(h5.attrs)
+            groups = [k for k in h5.keys() if not isinstance(h5[k], h5py.Dataset)]
+            if groups:
+                raise SceneError(f"--restart {path}: corrupted checkpoint: {groups[0]!r} is a "
+                                 "group, not a dataset")
             arrays = {k: h5[k][()] for k in h5.keys()}
     except OSError as e:
         raise SceneError(f"--restart {path}: unreadable or truncated checkpoint ({e})") from e
     if int(attrs.get("version", 1)) == 1:
         _upgrade(arrays, attrs)
     missing = [k for k in ARRAYS + PAIRS if k not in arrays]
+    missing += [f"attribute {a!r}" for a in ATTRS if a not in attrs]
     if missing:
-        raise SceneError(f"--restart {path}: checkpoint lacks {', '.join(missing)}")
+        raise SceneError(f"--restart {path}: corrupted checkpoint: it lacks "
+                         f"{', '.join(missing)}")
+    _check_layout(path, arrays, attrs)
     names = str(attrs.get("history_columns", ""))
     attrs["history_columns"] = tuple(names.split(",")) if names else ()
     return arrays, attrs
+
+
+ATTRS = ("step", "time", "dt", "fingerprint")
+# trailing shape of each dataset; rows: "n" per particle, "m" per history pair, "q" per force
+LAYOUT = {"gid": ("n", ()), "kind": ("n", ()), "x": ("n", (2,)), "v": ("n", (2,)),
+          "theta": ("n", ()), "omega": ("n", ()), "f": ("n", (2,)), "tau": ("n", ()),
+          "radius": ("n", ()), "mass": ("n", ()), "phi0": ("n", ()), "e0": ("n", (2,)),
+          "ring_force": ("n", (3,)), "pair_lo": ("m", ()), "pair_hi": ("m", ()),
+          "force_lo": ("q", ()), "force_hi": ("q", ()), "pair_force": ("q", (3,))}
+
+
+def _check_layout(path, arrays: dict[str, np.ndarray], attrs: dict[str, object]) -> None:
+    """Every dataset numeric, of its documented shape and row count; the step a non-negative
+    integer with time = step * dt: a hand-edited or damaged file is refused by name."""
+    rows = {"n": np.shape(arrays["gid"])[:1], "m": np.shape(arrays["pair_lo"])[:1],
+            "q": np.shape(arrays["force_lo"])[:1]}
+    for key, (count, tail) in LAYOUT.items():
+        a = np.asarray(arrays[key])
+        want = rows[count] + tail
+        if a.dtype.kind not in "iuf" or a.shape != want:
+            raise SceneError(f"--restart {path}: corrupted checkpoint: {key} has shape "
+                             f"{a.shape} of {a.dtype}, expected {want} of numbers")
+    for key, count in (("pair_hist", "m"), ("hist_wall", "n")):
+        a = np.asarray(arrays[key])
+        if a.dtype.kind not in "iuf" or a.ndim != 2 or a.shape[0] not in (rows[count][0], 0):
+            raise SceneError(f"--restart {path}: corrupted checkpoint: {key} has shape "
+                             f"{a.shape} of {a.dtype}, expected ({rows[count][0]}, columns)")
+    step, dt, time = attrs["step"], attrs["dt"], attrs["time"]
+    if not (isinstance(step, (int, np.integer)) and step >= 0 and np.isfinite(dt) and dt > 0
+            and time == step * dt):
+        raise SceneError(f"--restart {path}: corrupted checkpoint: step {step}, dt {dt} s and "
+                         f"time {time} s do not agree (time = step x dt, step >= 0)")
 
 
 def _upgrade(arrays: dict[str, np.ndarray], attrs: dict[str, object]) -> None:

@@ -134,10 +134,12 @@ def _history_columns(path, rows: np.ndarray, written: tuple[str, ...],
 
 def _check_restored(path, arrays: dict[str, np.ndarray], ps) -> None:
     """A checkpoint whose bytes were damaged may still read as HDF5 (it has no checksums): its
-    particles must be the scene's (ids, kinds, radii, masses: bit for bit) and every state value
-    finite, else the restart is refused instead of continuing from garbage."""
-    for key in ("gid", "kind", "radius", "mass"):
-        bad = np.flatnonzero(np.asarray(arrays[key]) != getattr(ps, key))
+    particles must be the scene's (ids, kinds, radii, masses, the wall disks' places on their
+    rings: bit for bit) and every state value finite, else the restart is refused instead of
+    continuing from garbage."""
+    for key in ("gid", "kind", "radius", "mass", "phi0", "e0"):  # e0, phi0: wall disks' places
+        differ = np.asarray(arrays[key]) != getattr(ps, key)
+        bad = np.flatnonzero(differ.reshape(differ.shape[0], -1).any(axis=1))
         if bad.size:
             raise SceneError(f"--restart {path}: corrupted checkpoint: {key} of particle row "
                              f"{int(bad[0])} is {arrays[key][bad[0]]!r}, the scene has "

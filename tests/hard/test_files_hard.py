@@ -46,6 +46,23 @@ def damaged(checkpoint, tmp_path, edit):
      "gid of particle row 0"),
     ("springs of non-pairs", lambda h5: h5["pair_hi"].__setitem__(0, -1),
      "pair_lo/pair_hi are not pairs"),
+    # what an adversarial user tried: wall disks moved inside the inner ring, a step far in the
+    # future, attributes and datasets missing or of another shape, a dataset replaced by a group
+    ("wall disks moved", lambda h5: h5["e0"].__setitem__(slice(300, None), h5["e0"][300:] * 0.5),
+     "e0 of particle row 300"),
+    ("step 1e15", lambda h5: h5.attrs.__setitem__("step", 10**15),
+     "step 1000000000000000, dt"),
+    ("a negative step", lambda h5: h5.attrs.__setitem__("step", -1), "do not agree"),
+    ("no fingerprint", lambda h5: h5.attrs.__delitem__("fingerprint"),
+     "it lacks attribute 'fingerprint'"),
+    ("x of shape (N, 3)", lambda h5: (h5.__delitem__("x"), h5.create_dataset(
+        "x", data=np.zeros((426, 3)))), "x has shape (426, 3) of float64, expected (426, 2)"),
+    ("a 1-D history", lambda h5: (h5.__delitem__("pair_hist"), h5.create_dataset(
+        "pair_hist", data=np.zeros(7))), "pair_hist has shape (7,)"),
+    ("strings for masses", lambda h5: (h5.__delitem__("mass"), h5.create_dataset(
+        "mass", data=np.array([b"m"] * 426))), "mass has shape (426,) of |S1"),
+    ("a group for a dataset", lambda h5: (h5.__delitem__("omega"), h5.create_group("omega")),
+     "'omega' is a group, not a dataset"),
 ])
 def test_corrupted_checkpoint_is_refused(checkpoint, tmp_path, what, edit, message):
     bad = damaged(checkpoint, tmp_path, edit)
