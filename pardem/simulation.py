@@ -30,7 +30,7 @@ from .output.progress import breakdown, end_progress, log_line, progress_line, s
 from .output.restart import gather_state, restore
 from .output.snapshots import write_snapshot
 from .output.checkpoint import save_checkpoint
-from .output.folder import claim_folder
+from .output.folder import FolderLock, claim_folder
 from .output.averages import make_averager, resume, sample_grid
 from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
@@ -110,9 +110,13 @@ class Simulation(StateViews):
             self.clock.step[0], history, recorded, averages = restore(
                 restart, ps, scene, self.dt, self.history_columns, self.decomp, self.log)
             resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
-        if self.out_dir is not None:
-            removed = self.decomp.bcast_call(claim_folder, self.out_dir, scene, restart,
-                                             overwrite)
+        self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
+        if self.out_dir is not None:  # claimed under the folder's lock, released after
+            try:
+                removed = self.decomp.bcast_call(claim_folder, self.out_dir, scene, restart,
+                                                 overwrite, self.folder_lock)
+            finally:
+                self.folder_lock.release()
             if removed:
                 self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
         self.decomp.place_sectors(ps.x[:init.n_free])
@@ -221,9 +225,19 @@ class Simulation(StateViews):
     # -- running ----------------------------------------------------------------------------
     def run(self, end: float | None = None, progress: bool = True) -> None:
         """Advance to time ``end`` (s; default the scene's [time] end), firing the writers:
-        snapshots and checkpoints into ``out_dir`` (if set), ring samples ([averaging]), and a
-        progress line on stderr (rank 0). Under MPI every rank calls this; chunk sizes and
-        report times are rank 0's decisions."""
+        snapshots and checkpoints into ``out_dir`` (if set, under its folder lock: another job
+        writing there is refused), ring samples ([averaging]), and a progress line on stderr
+        (rank 0). Under MPI every rank calls this; chunk sizes and report times are rank 0's
+        decisions."""
+        if self.out_dir is None:
+            return self._run(end, progress)
+        self.decomp.bcast_call(self.folder_lock.acquire)
+        try:
+            self._run(end, progress)
+        finally:
+            self.folder_lock.release()
+
+    def _run(self, end: float | None, progress: bool) -> None:
         end = self.scene.time.end if end is None else end
         end_step = int(round(end / self.dt))
         if end_step < self.step:

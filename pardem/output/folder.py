@@ -3,11 +3,17 @@
 Stage: output (rank 0). A folder "holds a run" when it has any of ``RUN_FILES``. A restart
 into a folder that holds the same scene's run continues it (snapshots after the checkpoint
 are replaced); anything else needs ``overwrite`` (``pardem run --overwrite``), which removes
-those files first, so that old and new files never mix.
+those files first, so that old and new files never mix. While a job claims the folder or
+writes into it, it holds ``FolderLock`` (an flock on ``DIR/.pardem-lock``, released by the
+kernel however the job ends, kill -9 included): a second job is refused, naming the first.
 """
 
 from __future__ import annotations
 
+import fcntl
+import os
+import socket
+import time
 from pathlib import Path
 
 from ..scene import SceneError, load_scene
@@ -16,10 +22,46 @@ RUN_FILES = ("scene.toml", "log.txt", "checkpoint.h5", "particles.h5", "particle
              "contacts.xdmf", "rings.h5", "rings.csv", "rings.vtu")
 
 
-def claim_folder(out_dir: Path, scene, restart, overwrite: bool) -> list[str]:
+LOCK = ".pardem-lock"
+
+
+class FolderLock:
+    """An exclusive lock on a run folder, held from ``acquire`` to ``release`` (or the end of
+    the process). SceneError, naming the holder, if another job holds it."""
+
+    def __init__(self, out_dir: Path):
+        self.path = Path(out_dir) / LOCK
+        self.fd: int | None = None
+
+    def acquire(self) -> None:
+        if self.fd is not None:
+            return
+        self.path.parent.mkdir(parents=True, exist_ok=True)
+        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another job"
+            os.close(fd)
+            raise SceneError(f"--out {self.path.parent}: the folder is in use by {holder}; wait "
+                             "for that job to end, or choose another folder") from None
+        os.ftruncate(fd, 0)
+        os.pwrite(fd, f"pardem job {os.getpid()} on {socket.gethostname()}, since "
+                      f"{time.strftime('%Y-%m-%d %H:%M:%S')}".encode(), 0)
+        self.fd = fd
+
+    def release(self) -> None:
+        if self.fd is not None:
+            os.close(self.fd)  # closing the descriptor drops the flock
+            self.fd = None
+
+
+def claim_folder(out_dir: Path, scene, restart, overwrite: bool, lock: FolderLock) -> list[str]:
     """Make ``out_dir`` ready for a run of ``scene`` (continuing from ``restart``, a
-    checkpoint path or None). Returns the files removed (``overwrite``); SceneError if the
-    folder holds another run and ``overwrite`` is false."""
+    checkpoint path or None), under ``lock`` (held on return). Returns the files removed
+    (``overwrite``); SceneError if another job holds the folder, or if it holds another run and
+    ``overwrite`` is false."""
+    lock.acquire()
     found = [name for name in RUN_FILES if (out_dir / name).exists()]
     if not found:
         return []

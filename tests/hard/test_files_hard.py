@@ -1,8 +1,10 @@
 """Nothing is lost and nothing damaged is used: corrupted checkpoints are refused with the file
 named, and a run killed with SIGKILL continues from its last checkpoint bit for bit."""
 
+import os
 import subprocess
 import sys
+import time
 
 import h5py
 import numpy as np
@@ -127,3 +129,61 @@ def test_kill_9_then_restart_reproduces_the_uninterrupted_run(tmp_path):
     for s in before:
         if s["time"] <= t_ckpt:
             np.testing.assert_array_equal(after[s["step"]]["position"], s["position"])
+
+
+def test_a_folder_in_use_is_refused_and_freed_by_any_end_of_its_job(tmp_path):
+    """The folder lock: a second holder is refused, naming the first; closing frees it, and so
+    does SIGKILL of the holding process (the kernel drops an flock with the process)."""
+    from pardem.output.folder import FolderLock
+
+    first, second = FolderLock(tmp_path), FolderLock(tmp_path)
+    first.acquire()
+    with pytest.raises(SceneError, match=rf"--out {tmp_path}: the folder is in use by pardem "
+                                         rf"job {os.getpid()} on "):
+        second.acquire()
+    first.release()
+    second.acquire()
+    second.release()
+    holder = subprocess.Popen([sys.executable, "-c", (
+        "import sys, time; from pathlib import Path; from pardem.output.folder import "
+        "FolderLock; FolderLock(Path(sys.argv[1])).acquire(); print('held', flush=True); "
+        "time.sleep(600)"), str(tmp_path)], stdout=subprocess.PIPE, text=True)
+    assert holder.stdout.readline().strip() == "held"
+    with pytest.raises(SceneError, match=rf"in use by pardem job {holder.pid} "):
+        FolderLock(tmp_path).acquire()
+    holder.kill()
+    holder.wait(timeout=30)
+    holder.stdout.close()
+    freed = FolderLock(tmp_path)
+    freed.acquire()  # freed by the kill
+    freed.release()
+
+
+def test_a_second_job_into_a_running_jobs_folder_is_refused(tmp_path, capsys):
+    """Two runs into one folder (or a restart into a folder whose job still writes): the second
+    exits 2 naming the first, which goes on writing undisturbed."""
+    from pardem.cli import main
+
+    scene = tmp_path / "s.toml"
+    write_scene(cell(snapshot_interval=0.02, checkpoint_interval=0.1), scene)
+    out = tmp_path / "run"
+    cli = [sys.executable, "-m", "pardem.cli", "run", str(scene), "--quiet", "--out", str(out)]
+    proc = subprocess.Popen(cli + ["--end", "50"], stderr=subprocess.DEVNULL)
+    try:
+        def writing():
+            return (out / "checkpoint.h5").exists()
+
+        deadline = time.time() + 300
+        while not writing() and time.time() < deadline and proc.poll() is None:
+            time.sleep(0.05)
+        assert writing(), "the first job never wrote a checkpoint"
+        for args in (["--overwrite"], ["--restart", str(out)]):
+            assert main(["run", str(scene), "--out", str(out), "--end", "0.3", *args]) == 2
+            err = capsys.readouterr().err
+            assert f"--out {out}: the folder is in use by pardem job {proc.pid} on " in err
+        assert proc.poll() is None  # still running
+    finally:
+        proc.kill()
+        proc.wait(timeout=30)
+    assert main(["run", str(scene), "--out", str(out), "--end", "0.3", "--restart", str(out),
+                 "--quiet"]) == 0  # the killed job's folder continues
