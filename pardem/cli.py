@@ -97,6 +97,7 @@ def main(argv: list[str] | None = None) -> int:
     from .parallel import abort, world
     from .scene import SceneError, load_scene
     from .simulation import Simulation, SimulationError
+    from .stop import Interrupted, catching_signals
 
     comm = world()  # None on one process: MPI is not loaded
     rank = comm.Get_rank() if comm is not None else 0
@@ -117,7 +118,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"pardem: {scene.info.name}: {sim.n_free} particles, dt = {sim.dt:.4g} s, "
                 f"{sim.decomp.describe()}, ready in {time.perf_counter() - t_start:.2f} s; "
                 f"output in {out}\n")
-        sim.run(end=args.end, progress=not args.quiet)
+        with catching_signals():  # SIGINT/SIGTERM: every rank stops at a step, checkpointed
+            sim.run(end=args.end, progress=not args.quiet)
     except SceneError as e:
         if root:
             sys.stderr.write(f"pardem: error: {in_file(e, args.scene)}\n")
@@ -126,10 +128,17 @@ def main(argv: list[str] | None = None) -> int:
         if root:
             sys.stderr.write(f"pardem: run stopped: {e}\n")
         return 3
+    except Interrupted as e:
+        if root:
+            sys.stderr.write(f"pardem: {e}; the checkpoint {out / 'checkpoint.h5'} holds this "
+                             f"state: continue with --restart {out}\n")
+        return 128 + e.signum
     except BaseException:
         if comm is not None:
+            import signal
             import traceback
 
+            signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not skip Abort
             sys.stderr.write(f"pardem: rank {rank} failed:\n{traceback.format_exc()}")
             sys.stderr.flush()
             abort(comm)

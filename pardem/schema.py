@@ -133,27 +133,9 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
         else:
             raise SceneError("[[particles]] missing: a free scene needs [[particles]] tables "
                              "or particles_file")
-        _check_speeds(particles, c["k_n"], "[[particles]]" if "particles" in d
-                      else f"particles_file = {d['particles_file']!r} row")
     return Scene(SceneInfo(**info), geometry, species, particles, Contact(**c), Effects(**e),
                  TimeCfg(**opt["time"]), Neighbors(**opt["neighbors"]),
                  OutputCfg(**opt["output"]), averaging, source)
-
-
-def _check_speeds(p, k_n: float, where: str) -> None:
-    """Refuse a free disk whose surface moves so fast that, hitting a resting disk or a wall,
-    it would overlap it by more than its own diameter (v sqrt(m/k_n) > d, the undamped spring
-    against an infinitely massive partner): no contact model separates such disks, and speeds
-    like 1e200 m/s overflow the neighbour search."""
-    speed = np.hypot(p.vx, p.vy) + np.abs(p.omega) * 0.5 * p.diameter
-    depth = speed * np.sqrt(p.mass / k_n) / p.diameter
-    if np.any(depth > 1.0):
-        i = int(np.argmax(depth))
-        raise SceneError(
-            f"{where} #{i}: moves at {speed[i]:.3g} m/s (velocity and spin at its rim); a "
-            f"head-on hit at that speed would overlap a resting partner by up to "
-            f"{depth[i]:.3g} diameters, and the disks would pass through each other; at most "
-            f"{p.diameter[i] * math.sqrt(k_n / p.mass[i]):.3g} m/s for this disk and k_n")
 
 
 def _species(rows: list[Any]) -> tuple[Species, ...]:

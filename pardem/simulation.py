@@ -36,6 +36,7 @@ from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
 from .placement import initial_configuration, whole_cell
 from .rebuild import place_idle_walls, rebuild
+from . import stop
 from .scene import Scene, SceneError, write_scene
 from .state import Params, new_clock, new_pairs, new_particles, packed, unpack_particles
 from .step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
@@ -265,6 +266,7 @@ class Simulation(StateViews):
             self.log(note)
             sys.stderr.write(f"pardem: {note}\n")
         since = [time.perf_counter(), self.step]  # the last report's wall time and step
+        signum = 0  # a signal received on any rank (pardem.stop)
         chunk, last_report = 1000, 0.0
         every = 1.0 if progress else (10.0 if self.out_dir is not None else math.inf)
         while self.step < end_step:
@@ -278,18 +280,25 @@ class Simulation(StateViews):
                 chunk = int(min(max(done * 0.25 / (t1 - t0), 100), 1_000_000))
             report = t1 - last_report > every or (self.step >= end_step and every < math.inf)
             chunk, report = self.decomp.bcast((chunk, report))
+            signum = int(self.decomp.max(float(stop.requested())))  # a signal to any rank
             for w in writers:
                 if w.trigger.due(self.step):
                     self._timed(w.stage, w.write, self)
-            if report:
+            if report or signum:
                 last_report = t1
                 self._timed("progress", self._report, since, end_step, progress)
+            if signum:
+                break
         for w in writers:
             self._timed(w.stage, w.close, self)
         self.log(breakdown(self))
         if progress and root:
             end_progress()
             sys.stderr.write(breakdown(self) + "\n")
+        if signum:  # stopped by a signal (on some rank); the writers have closed
+            stopped = stop.Interrupted(signum, self.time, self.step)
+            self.log(f"run {stopped}; the checkpoint holds this state")
+            raise stopped
 
     def _ring_writers(self, end_step: int) -> list:
         """The in-situ ring sampler (none without [averaging]) at the sample steps after this

@@ -103,6 +103,23 @@ def check_wall_speeds(scene: Scene) -> None:
                 f"{bound:.4g} {unit}, or a stiffer k_n")
 
 
+def check_free_speeds(scene: Scene, dt: float) -> None:
+    """SceneError if a free disk's surface (velocity plus spin at its rim) would move more than
+    half its diameter in one step: it could pass through a partner between two steps without
+    ever touching it (and speeds like 1e200 m/s overflow the neighbour search)."""
+    p = scene.particles
+    if p is None:
+        return
+    speed = np.hypot(p.vx, p.vy) + np.abs(p.omega) * 0.5 * p.diameter
+    per_step = speed * dt / p.diameter
+    if np.any(per_step > 0.5):
+        i = int(np.argmax(per_step))
+        raise SceneError(
+            f"[[particles]] #{i}: moves at {speed[i]:.3g} m/s (velocity and spin at its rim), "
+            f"{per_step[i]:.3g} diameters per step of {dt:.4g} s: it could pass through another "
+            f"disk between two steps; at most {0.5 * p.diameter[i] / dt:.3g} m/s at this dt")
+
+
 STEPS_PER_MODE = 5.0
 """The step may not exceed (pi/omega)/5 of the stiffest enabled contact mode: five steps per
 half period (velocity Verlet itself turns unstable at omega dt = 2, i.e. 1.6 steps per half
@@ -166,6 +183,7 @@ def resolve_dt(scene: Scene) -> float:
     check_wall_speeds(scene)
     t_c = smallest_contact_time(scene)
     dt = scene.time.dt if scene.time.dt is not None else t_c / scene.time.dt_per_contact
+    check_free_speeds(scene, dt)
     limit, what = stability_limit(scene)
     if dt > limit:
         key = "dt" if scene.time.dt is not None else "dt_per_contact"

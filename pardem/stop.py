@@ -1,0 +1,48 @@
+"""Stopping a run on SIGINT or SIGTERM, on any rank, without losing anything.
+
+Stage: driver. ``pardem run`` runs inside ``catching_signals``: a signal only records its number
+(repeated signals too; nothing is raised inside MPI or compiled code, where an exception on one
+rank would leave the others waiting for it). ``Simulation.run`` reads ``requested`` between
+compiled chunks (every ~0.25 s of work) and takes the largest over the ranks, so a signal to
+any one rank stops every rank at the same step: the writers close as at a normal end (final
+checkpoint, snapshot, ring averages so far) and ``Interrupted`` is raised; the command exits
+with 128 + the signal's number.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+
+_received = [0]  # the last signal's number (0: none)
+
+
+def _record(signum, frame) -> None:
+    _received[0] = signum
+
+
+@contextlib.contextmanager
+def catching_signals():
+    """Within the block, SIGINT and SIGTERM are recorded instead of acting (main thread only);
+    the previous handlers return after it (``pardem.cli.main`` may run inside a test)."""
+    _received[0] = 0
+    previous = {sig: signal.signal(sig, _record) for sig in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+def requested() -> int:
+    """The number of the signal received since the start (0: none)."""
+    return _received[0]
+
+
+class Interrupted(Exception):
+    """A run stopped by a signal at a step boundary, after its writers closed."""
+
+    def __init__(self, signum: int, time: float, step: int):
+        self.signum, self.time, self.step = signum, time, step
+        super().__init__(f"stopped by {signal.Signals(signum).name} at t = {time:.6g} s "
+                         f"(step {step})")
