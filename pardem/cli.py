@@ -154,7 +154,7 @@ def _warmup(args) -> int:
 
     from .parallel import abort, world
     from .scene import SceneError, load_scene
-    from .simulation import warm_up
+    from .warmup import warm_up
 
     comm = world()
     root = comm is None or comm.Get_rank() == 0

@@ -203,7 +203,7 @@ def densest_packing(species: tuple[Species, ...]) -> tuple[float, str]:
 def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, ...], Geometry]:
     """Every species' count: given, or from [geometry] volume_fraction and the shares (the
     resolved scene keeps the counts and drops the fraction and shares)."""
-    from .walls import global_volume_fraction, wall_area_share
+    from .walls import wall_area_share
 
     area = math.pi * (g.outer_radius**2 - g.inner_radius**2)
     walls = wall_area_share(g)
@@ -223,12 +223,13 @@ def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, .
         g = dataclasses.replace(g, volume_fraction=None)
     if sum(s.count for s in species) < 1:
         raise SceneError("[[species]] count: total count must be >= 1")
-    nu = global_volume_fraction(g, species)
+    # the free disks alone: wall disks may overlap, so their share bounds nothing here
+    nu = sum(s.count * math.pi * s.diameter**2 / 4 for s in species) / area
     if nu > densest:
         raise SceneError(
-            f"[[species]] count: {sum(s.count for s in species)} disks (with half of each wall "
-            f"disk) fill {nu:.4f} of the cell between inner_radius and outer_radius, above "
-            f"{densest:.4f}, {what}; reduce the counts or enlarge outer_radius")
+            f"[[species]] count: {sum(s.count for s in species)} disks fill {nu:.4f} of the "
+            f"cell between inner_radius and outer_radius, above {densest:.4f}, {what}; reduce "
+            "the counts or enlarge outer_radius")
     return species, g
 
 

@@ -30,7 +30,7 @@ from .output.progress import breakdown, end_progress, log_line, progress_line, s
 from .output.restart import gather_state, restore
 from .output.snapshots import write_snapshot
 from .output.checkpoint import save_checkpoint
-from .output.folder import FolderLock, claim_folder
+from .output.folder import FolderLock, claim_folder, lock_unchanged, run_files
 from .output.averages import make_averager, resume, sample_grid
 from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
@@ -112,10 +112,12 @@ class Simulation(StateViews):
                 restart, ps, scene, self.dt, self.history_columns, self.decomp, self.log)
             resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
         self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
+        self._claimed = None  # run files present when the folder was claimed (first run only)
         if self.out_dir is not None:  # claimed under the folder's lock, released after
             try:
                 removed = self.decomp.bcast_call(claim_folder, self.out_dir, scene, restart,
                                                  overwrite, self.folder_lock)
+                self._claimed = self.decomp.bcast_call(run_files, self.out_dir)
             finally:
                 self.folder_lock.release()
             if removed:
@@ -232,7 +234,11 @@ class Simulation(StateViews):
         decisions."""
         if self.out_dir is None:
             return self._run(end, progress)
-        self.decomp.bcast_call(self.folder_lock.acquire)
+        if self._claimed is not None:  # the first run() since the claim
+            self.decomp.bcast_call(lock_unchanged, self.out_dir, self.folder_lock, self._claimed)
+            self._claimed = None
+        else:
+            self.decomp.bcast_call(self.folder_lock.acquire)
         try:
             self._run(end, progress)
         finally:
@@ -384,19 +390,3 @@ class Simulation(StateViews):
         if state is not None:
             save_checkpoint(path or self.out_dir / "checkpoint.h5", *state)
 
-
-def warm_up(scene: Scene, out_dir: str | Path, comm=None) -> Simulation:
-    """Build ``scene`` (decomposed over ``comm``'s ranks) and run four steps with every writer
-    firing (snapshots, checkpoints, ring samples) into the scratch folder ``out_dir``: numba then
-    has compiled, and cached on disk, every kernel a run of this scene on this many ranks calls.
-    ``pardem warmup`` and ``run_scripts/compile_times.py`` both do this."""
-    import dataclasses
-
-    sim = Simulation(scene, out_dir=out_dir, comm=comm)
-    dt = sim.dt
-    averaging = scene.averaging and dataclasses.replace(
-        scene.averaging, start=0.0, end=4 * dt, sample_interval=2 * dt)
-    sim.scene = dataclasses.replace(scene, averaging=averaging, output=dataclasses.replace(
-        scene.output, snapshot_interval=2 * dt, checkpoint_interval=2 * dt))
-    sim.run(end=4 * dt, progress=False)
-    return sim

@@ -30,6 +30,7 @@ def catching_signals():
     try:
         yield
     finally:
+        _received[0] = 0  # a later run in this process starts afresh
         for sig, handler in previous.items():
             signal.signal(sig, handler)
 

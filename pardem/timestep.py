@@ -142,11 +142,12 @@ def contact_modes(scene: Scene) -> list[tuple[str, float]]:
     A sticking tangential spring k_t moves the contact point through both translation and
     rotation: 1/m_eff = 1/m_i + 1/m_j + a_i^2/I_i + a_j^2/I_j = 3/m_red for disks (I = m a^2/2),
     1/m_red without rotation. The rolling spring k_r acts on the relative rotation through the
-    reduced radius a' = a_i a_j/(a_i + a_j): omega^2 = k_r a'^2 (1/I_i + 1/I_j)."""
+    reduced radius a' = a_i a_j/(a_i + a_j): omega^2 = k_r a'^2 (1/I_i + 1/I_j); against a flat
+    ring surface a' = a_i and the ring does not turn back: 2 k_r/m_i, the stiffest."""
     c, e = scene.contact, scene.effects
     m_red = smallest_reduced_mass(scene)
     modes = [("the normal spring k_n (t_c of the lightest pair)", smallest_contact_time(scene))]
-    if e.tangential_friction:
+    if e.tangential_friction and c.k_t > 0 and c.mu > 0:  # mu = 0: the spring never sticks
         share = 3.0 if e.rotation else 1.0
         what = ("the sticking tangential spring with rotation, omega^2 = 3 k_t/m_red"
                 if e.rotation else "the sticking tangential spring, omega^2 = k_t/m_red")
@@ -159,6 +160,8 @@ def contact_modes(scene: Scene) -> list[tuple[str, float]]:
             w2 = max(c.k_r * (ai * aj / (ai + aj)) ** 2 * 2.0 * (1 / (mi * ai**2) + 1 / (mj * aj**2))
                      for i, (ai, mi, ni) in enumerate(kinds) for j, (aj, mj, _) in enumerate(kinds)
                      if i != j or ni >= 2) if len(kinds) > 1 or kinds[0][2] >= 2 else 0.0
+        if scene.geometry is not None:  # a flat ring surface: a' = a, 1/I_wall = 0
+            w2 = max(w2, 2.0 * c.k_r / min(m for _, m, _ in kinds))
         if w2 > 0:
             modes.append(("the rolling spring, omega^2 = k_r a'^2 (1/I_i + 1/I_j)",
                           math.pi / math.sqrt(w2)))

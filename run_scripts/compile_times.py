@@ -69,7 +69,7 @@ def worker(scene_path: str) -> None:
     from pardem.scene import load_scene
 
     try:
-        from pardem.simulation import warm_up
+        from pardem.warmup import warm_up
     except ImportError:  # a tree from before warm_up (--against an old REV)
         warm_up = _old_warm_up
 
@@ -87,7 +87,7 @@ def worker(scene_path: str) -> None:
 
 
 def _old_warm_up(scene, out_dir, comm):
-    """pardem.simulation.warm_up for trees that predate it (their pardem warmup ran serially)."""
+    """pardem.warmup.warm_up for trees that predate it (their pardem warmup ran serially)."""
     import dataclasses
 
     from pardem.simulation import Simulation

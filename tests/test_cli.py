@@ -113,7 +113,8 @@ def test_more_particles_than_fit_is_refused(tmp_path, capsys):
     assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert f"pardem: error: {bad}: [[species]] count: 25844 disks" in err
-    assert "fill 6.7587 of the cell" in err and "reduce the counts or enlarge outer_radius" in err
+    # (25450 x 4.32412e-5 + 394 x 6.34761e-5) m^2 / 0.166643 m^2
+    assert "fill 6.7540 of the cell" in err and "reduce the counts or enlarge outer_radius" in err
     bad.write_text(scene.replace("outer_start_radius = 0.33", "outer_start_radius = 0.2525"))
     assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
@@ -213,3 +214,20 @@ def test_average_and_plot_of_damaged_output_files_say_so_in_one_line(tmp_path, c
         f.create_group("snapshots/000001")  # a snapshot without its time and arrays
     assert main(["average", str(tmp_path)]) == 2
     assert "its output files cannot be read" in capsys.readouterr().err
+
+
+def test_a_signal_is_recorded_only_inside_the_run_and_forgotten_after():
+    """pardem run records SIGINT instead of raising (every rank then stops at one step); after
+    the run the previous handler is back and the record is cleared, so a later run in the same
+    process (a test, a notebook) is not stopped by an old signal."""
+    import os
+    import signal
+
+    from pardem import stop
+
+    before = signal.getsignal(signal.SIGINT)
+    with stop.catching_signals():
+        os.kill(os.getpid(), signal.SIGINT)
+        assert stop.requested() == signal.SIGINT
+    assert stop.requested() == 0
+    assert signal.getsignal(signal.SIGINT) is before

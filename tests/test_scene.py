@@ -174,12 +174,12 @@ def test_bad_couette_value(path, value, message):
      "[averaging] ring_width = 0.2: wider than the gap outer_radius - inner_radius = 0.149 m"),
     ({"geometry.outer_radius": 0.108}, "[geometry] outer_radius - inner_radius"),
     ({"species.0.count": 0, "species.1.count": 0}, "total count must be >= 1"),
-    # area: pi (0.2525^2 - 0.1035^2) = 0.166643 m^2; a disk of 7.42 mm 4.32412e-5 m^2, the
-    # default 93 + 227 wall disks at half their 4.90874e-6 m^2 add 7.854e-4 m^2
-    ({"species.0.count": 3545},  # + 394 of 8.99 mm: (0.153290 + 0.025010 + 0.000785) / 0.166643
-     "[[species]] count: 3939 disks (with half of each wall disk) fill 1.0747 of the cell"),
+    # area: pi (0.2525^2 - 0.1035^2) = 0.166643 m^2; a disk of 7.42 mm 4.32412e-5 m^2, of
+    # 8.99 mm 6.34761e-5 m^2; the wall disks are left out (they may overlap)
+    ({"species.0.count": 3545},  # + 394 of 8.99 mm: (0.153290 + 0.025010) / 0.166643
+     "[[species]] count: 3939 disks fill 1.0700 of the cell"),
     ({"species.0.count": 3200, "species.1.diameter": D_S},  # one size: hexagonal at most
-     "fill 0.9373 of the cell between inner_radius and outer_radius, above 0.9069, the "
+     "fill 0.9326 of the cell between inner_radius and outer_radius, above 0.9069, the "
      "densest packing of equal disks"),
     ({"geometry.inner_wall_count": 0, "geometry.inner_flat_surface": False},
      "[geometry] inner_flat_surface = false: a ring with inner_wall_count = 0 (smooth) needs "
@@ -481,15 +481,20 @@ def test_the_step_is_limited_by_the_stiffest_enabled_contact_mode():
         resolve_dt(scene(**{"time.dt_per_contact": 6}))
     assert resolve_dt(scene(**{"time.dt_per_contact": 8.5})) == pytest.approx(2.1765e-3 / 8.5,
                                                                              rel=1e-4)
-    # rolling spring between two equal disks: a' = a/2, I = m a^2/2, omega^2 = k_r/m; the small
-    # pair is the stiffest (small-large: 0.83 k_r/m_small): k_r = 1e4 N/m, pi/omega = 0.5210 ms
+    # rolling spring between two equal disks: a' = a/2, I = m a^2/2, omega^2 = k_r/m (the
+    # small pair is the stiffest pair: small-large gives 0.83 k_r/m_small); against the flat
+    # ring surface a' = a and the ring does not turn: omega^2 = 2 k_r/m_small, stiffer still.
+    # k_r = 1e4 N/m: pi/omega = 0.3684 ms
     from pardem.timestep import stability_limit
 
     rolling = scene(**{"effects.rolling_resistance": True, "contact.k_r": 1e4,
                        "contact.mu_r": 0.1})
     limit, what = stability_limit(rolling)
-    assert limit == pytest.approx(math.pi / math.sqrt(1e4 / M_S) / 5, rel=1e-12)
+    assert limit == pytest.approx(math.pi / math.sqrt(2e4 / M_S) / 5, rel=1e-12)
     assert what.startswith("the rolling spring")
+    # mu = 0: the tangential spring never sticks, k_t = 0 has no mode (no division by zero)
+    assert stability_limit(scene(**{"contact.mu": 0.0, "contact.k_t": 0.0}))[0] == \
+        pytest.approx(2.1765e-3 / 5, rel=1e-4)
     for off in ({"effects.rotation": False}, {"effects.tangential_friction": False}):
         assert resolve_dt(scene(**off, **{"time.dt": 4.35e-4})) == 4.35e-4
         with pytest.raises(SceneError, match=r"the normal spring k_n"):

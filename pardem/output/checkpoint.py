@@ -89,8 +89,12 @@ LAYOUT = {"gid": ("n", ()), "kind": ("n", ()), "x": ("n", (2,)), "v": ("n", (2,)
 def _check_layout(path, arrays: dict[str, np.ndarray], attrs: dict[str, object]) -> None:
     """Every dataset numeric, of its documented shape and row count; the step a non-negative
     integer with time = step * dt: a hand-edited or damaged file is refused by name."""
-    rows = {"n": np.shape(arrays["gid"])[:1], "m": np.shape(arrays["pair_lo"])[:1],
-            "q": np.shape(arrays["force_lo"])[:1]}
+    for key in ("gid", "pair_lo", "force_lo"):  # the row counts come from these
+        if np.ndim(arrays[key]) != 1:
+            raise SceneError(f"--restart {path}: corrupted checkpoint: {key} has shape "
+                             f"{np.shape(arrays[key])}, expected one row per entry")
+    rows = {"n": np.shape(arrays["gid"]), "m": np.shape(arrays["pair_lo"]),
+            "q": np.shape(arrays["force_lo"])}
     for key, (count, tail) in LAYOUT.items():
         a = np.asarray(arrays[key])
         want = rows[count] + tail

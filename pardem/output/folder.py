@@ -40,14 +40,17 @@ class FolderLock:
         fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            os.ftruncate(fd, 0)
+            os.pwrite(fd, f"pardem job {os.getpid()} on {socket.gethostname()}, since "
+                          f"{time.strftime('%Y-%m-%d %H:%M:%S')}".encode(), 0)
         except BlockingIOError:
             holder = os.pread(fd, 200, 0).decode(errors="replace").strip() or "another job"
             os.close(fd)
             raise SceneError(f"--out {self.path.parent}: the folder is in use by {holder}; wait "
                              "for that job to end, or choose another folder") from None
-        os.ftruncate(fd, 0)
-        os.pwrite(fd, f"pardem job {os.getpid()} on {socket.gethostname()}, since "
-                      f"{time.strftime('%Y-%m-%d %H:%M:%S')}".encode(), 0)
+        except BaseException:
+            os.close(fd)
+            raise
         self.fd = fd
 
     def release(self) -> None:
@@ -56,13 +59,30 @@ class FolderLock:
             self.fd = None
 
 
+def run_files(out_dir: Path) -> set[str]:
+    """The run files in ``out_dir`` now."""
+    return {name for name in RUN_FILES if (out_dir / name).exists()}
+
+
+def lock_unchanged(out_dir: Path, lock: FolderLock, claimed: set[str]) -> None:
+    """Take ``lock`` for writing, once the folder is known to hold no run files but the
+    ``claimed`` ones (those present when this job claimed it): another job may have claimed the
+    same empty folder and written into it while this one was still compiling."""
+    lock.acquire()
+    new = run_files(out_dir) - claimed - {"log.txt"}  # this job logs before it runs
+    if new:
+        lock.release()
+        raise SceneError(f"--out {out_dir}: another job wrote {', '.join(sorted(new))} into the "
+                         "folder after this one claimed it; choose another folder")
+
+
 def claim_folder(out_dir: Path, scene, restart, overwrite: bool, lock: FolderLock) -> list[str]:
     """Make ``out_dir`` ready for a run of ``scene`` (continuing from ``restart``, a
     checkpoint path or None), under ``lock`` (held on return). Returns the files removed
     (``overwrite``); SceneError if another job holds the folder, or if it holds another run and
     ``overwrite`` is false."""
     lock.acquire()
-    found = [name for name in RUN_FILES if (out_dir / name).exists()]
+    found = [name for name in RUN_FILES if name in run_files(out_dir)]
     if not found:
         return []
     if restart is not None and not overwrite and _same_scene(out_dir / "scene.toml", scene):

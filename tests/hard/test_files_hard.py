@@ -187,3 +187,18 @@ def test_a_second_job_into_a_running_jobs_folder_is_refused(tmp_path, capsys):
         proc.wait(timeout=30)
     assert main(["run", str(scene), "--out", str(out), "--end", "0.3", "--restart", str(out),
                  "--quiet"]) == 0  # the killed job's folder continues
+
+
+def test_a_folder_claimed_twice_is_written_by_the_first_runner_only(tmp_path):
+    """Two jobs claim the same empty folder (the second while the first still compiles); the
+    first to run writes its run; the other is refused when it starts to run, instead of writing
+    over the finished run."""
+    out = tmp_path / "run"
+    first = Simulation(cell(), out_dir=out)
+    second = Simulation(cell(), out_dir=out, overwrite=True)
+    first.run(end=0.02, progress=False)
+    with pytest.raises(SceneError, match=rf"--out {out}: another job wrote checkpoint.h5, "
+                                         r"particles.h5"):
+        second.run(end=0.02, progress=False)
+    assert [s["time"] for s in pardem.read_snapshots(out)][-1] == pytest.approx(0.02, abs=1e-4)
+    first.run(end=0.04, progress=False)  # the first job goes on writing its own run
