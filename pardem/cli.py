@@ -18,6 +18,7 @@ collective.
 from __future__ import annotations
 
 import argparse
+import errno
 import math
 import shutil
 import sys
@@ -102,6 +103,7 @@ def main(argv: list[str] | None = None) -> int:
     comm = world()  # None on one process: MPI is not loaded
     rank = comm.Get_rank() if comm is not None else 0
     root = rank == 0
+    out = Path(args.out or "runs")
     try:
         scene = load_scene(args.scene)
         out = Path(args.out) if args.out else Path("runs") / scene.info.name
@@ -133,15 +135,24 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr.write(f"pardem: {e}; the checkpoint {out / 'checkpoint.h5'} holds this "
                              f"state: continue with --restart {out}\n")
         return 128 + e.signum
-    except BaseException:
+    except BaseException as e:
+        full = isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT)
+        if full:  # checkpoints go to a temporary name first: the last one is whole
+            sys.stderr.write(f"pardem: error: rank {rank}: {e.strerror} while writing "
+                             f"{e.filename or 'the output'}; the last complete checkpoint is "
+                             f"{out / 'checkpoint.h5'}: free space and continue with --restart "
+                             f"{out}\n")
         if comm is not None:
             import signal
             import traceback
 
             signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second Ctrl-C must not skip Abort
-            sys.stderr.write(f"pardem: rank {rank} failed:\n{traceback.format_exc()}")
+            if not full:
+                sys.stderr.write(f"pardem: rank {rank} failed:\n{traceback.format_exc()}")
             sys.stderr.flush()
             abort(comm)
+        if full:
+            return 4
         raise
     return 0
 

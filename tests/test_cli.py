@@ -231,3 +231,23 @@ def test_a_signal_is_recorded_only_inside_the_run_and_forgotten_after():
         assert stop.requested() == signal.SIGINT
     assert stop.requested() == 0
     assert signal.getsignal(signal.SIGINT) is before
+
+
+def test_a_full_disk_is_one_line_and_exit_4(tmp_path, capsys, monkeypatch):
+    """No space left while writing a checkpoint: one line naming the file and the last complete
+    checkpoint (each is written under a temporary name first), exit status 4, no traceback."""
+    import errno
+
+    import pardem.simulation
+
+    def full(path, *args):
+        raise OSError(errno.ENOSPC, "No space left on device", str(path))
+
+    monkeypatch.setattr(pardem.simulation, "save_checkpoint", full)
+    out = tmp_path / "run"
+    assert main(["run", str(SCENES / "two_small.toml"), "--out", str(out), "--end", "0.02",
+                 "--quiet"]) == 4
+    err = capsys.readouterr().err
+    assert (f"pardem: error: rank 0: No space left on device while writing {out}/checkpoint.h5;"
+            f" the last complete checkpoint is {out}/checkpoint.h5") in err
+    assert "Traceback" not in err and f"continue with --restart {out}" in err
