@@ -143,7 +143,7 @@ def contact_modes(scene: Scene) -> list[tuple[str, float]]:
     rotation: 1/m_eff = 1/m_i + 1/m_j + a_i^2/I_i + a_j^2/I_j = 3/m_red for disks (I = m a^2/2),
     1/m_red without rotation. The rolling spring k_r acts on the relative rotation through the
     reduced radius a' = a_i a_j/(a_i + a_j): omega^2 = k_r a'^2 (1/I_i + 1/I_j); against a flat
-    ring surface a' = a_i and the ring does not turn back: 2 k_r/m_i, the stiffest."""
+    ring surface 2 k_r/m_i, the stiffest."""
     c, e = scene.contact, scene.effects
     m_red = smallest_reduced_mass(scene)
     modes = [("the normal spring k_n (t_c of the lightest pair)", smallest_contact_time(scene))]
@@ -154,14 +154,18 @@ def contact_modes(scene: Scene) -> list[tuple[str, float]]:
         modes.append((what, math.pi / math.sqrt(share * c.k_t / m_red)))
     if e.rolling_resistance and e.rotation and c.k_r > 0:
         kinds = _pair_kinds(scene)
-        if len(kinds) > 64:  # bound: a'^2 (1/I_i + 1/I_j) < 2/m_red
+        lightest = min(m for _, m, _ in kinds)
+        # against a flat ring surface a' = a_i and the ring does not turn back: 2 k_r/m_i,
+        # which also bounds every pair (a'^2 (1/I_i + 1/I_j) <= 2/min(m_i, m_j))
+        if scene.geometry is not None:
+            w2 = 2.0 * c.k_r / lightest
+        elif len(kinds) > 64:  # many kinds of free disk: a cruder bound, 2/m_red
             w2 = 2.0 * c.k_r / m_red
         else:
-            w2 = max(c.k_r * (ai * aj / (ai + aj)) ** 2 * 2.0 * (1 / (mi * ai**2) + 1 / (mj * aj**2))
-                     for i, (ai, mi, ni) in enumerate(kinds) for j, (aj, mj, _) in enumerate(kinds)
-                     if i != j or ni >= 2) if len(kinds) > 1 or kinds[0][2] >= 2 else 0.0
-        if scene.geometry is not None:  # a flat ring surface: a' = a, 1/I_wall = 0
-            w2 = max(w2, 2.0 * c.k_r / min(m for _, m, _ in kinds))
+            w2 = max((c.k_r * (ai * aj / (ai + aj)) ** 2 * 2.0 * (1 / (mi * ai**2)
+                                                                 + 1 / (mj * aj**2))
+                      for i, (ai, mi, ni) in enumerate(kinds)
+                      for j, (aj, mj, _) in enumerate(kinds) if i != j or ni >= 2), default=0.0)
         if w2 > 0:
             modes.append(("the rolling spring, omega^2 = k_r a'^2 (1/I_i + 1/I_j)",
                           math.pi / math.sqrt(w2)))

@@ -19,14 +19,13 @@ temporary worktree), alternating with this tree's, so that both see the same mac
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import statistics
-import subprocess
-import sys
 import tempfile
 import time
 from pathlib import Path
+
+from side_by_side import checkout, emit, mpi_job
 
 HERE = Path(__file__).resolve().parent
 DETAIL = bool(os.environ.get("PARDEM_COMPILE_DETAIL"))  # --detail: per function, not module
@@ -83,7 +82,7 @@ def worker(scene_path: str) -> None:
            "setup_and_steps_s": time.perf_counter() - t0, "groups": spent}
     rows = comm.gather(row, root=0)
     if comm.rank == 0:
-        print("RESULT " + json.dumps({"ranks": rows}))
+        emit({"ranks": rows})
 
 
 def _old_warm_up(scene, out_dir, comm):
@@ -103,17 +102,9 @@ def _old_warm_up(scene, out_dir, comm):
 
 
 def one_job(tree: Path, scene: Path, ranks: int) -> dict:
-    with tempfile.TemporaryDirectory() as cache:
-        env = dict(os.environ, NUMBA_CACHE_DIR=cache, NUMBA_NUM_THREADS="1",
-                   PYTHONPATH=str(tree))
-        mpiexec = Path(sys.executable).parent / "mpiexec"
-        cmd = [str(mpiexec), "-n", str(ranks), sys.executable, str(Path(__file__).resolve()),
-               "--worker", str(scene)]
-        done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
-    for line in done.stdout.splitlines():
-        if line.startswith("RESULT "):
-            return json.loads(line[len("RESULT "):])
-    raise SystemExit(f"compile job failed ({' '.join(cmd)}):\n{done.stdout}\n{done.stderr}")
+    with tempfile.TemporaryDirectory() as cache:  # a cold compile: an empty numba cache
+        return mpi_job(tree, ranks, [str(Path(__file__).resolve()), "--worker", str(scene)],
+                       {"NUMBA_CACHE_DIR": cache})
 
 
 def main() -> None:
@@ -130,27 +121,18 @@ def main() -> None:
     scene = Path(args.scene).resolve()
     if args.detail:
         os.environ["PARDEM_COMPILE_DETAIL"] = "1"
-    with tempfile.TemporaryDirectory() as tmp:
-        trees = {"new": HERE.parent}
-        if args.against:
-            trees["old"] = Path(tmp) / "old"
-            subprocess.run(["git", "-C", str(HERE.parent), "worktree", "add", "--detach",
-                            str(trees["old"]), args.against], check=True, capture_output=True)
-        try:
-            results: dict = {(c, p): [] for c in trees for p in args.ranks}
-            for k in range(args.repeats):
-                for p in args.ranks:
-                    for code, tree in trees.items():
-                        got = one_job(tree, scene, p)
-                        results[code, p].append(got["ranks"])
-                        each = ", ".join(f"{r['compile_s']:.1f}" for r in got["ranks"])
-                        print(f"round {k + 1}: {code} code, {p} rank(s): kernels ready "
-                              f"{max(r['ready_s'] for r in got['ranks']):.1f} s after start; "
-                              f"seconds compiling on each rank: {each}", flush=True)
-        finally:
-            if args.against:
-                subprocess.run(["git", "-C", str(HERE.parent), "worktree", "remove", "--force",
-                                str(trees["old"])], capture_output=True)
+    with checkout(args.against) as old:
+        trees = {"new": HERE.parent, **({"old": old} if old else {})}
+        results: dict = {(c, p): [] for c in trees for p in args.ranks}
+        for k in range(args.repeats):
+            for p in args.ranks:
+                for code, tree in trees.items():
+                    got = one_job(tree, scene, p)
+                    results[code, p].append(got["ranks"])
+                    each = ", ".join(f"{r['compile_s']:.1f}" for r in got["ranks"])
+                    print(f"round {k + 1}: {code} code, {p} rank(s): kernels ready "
+                          f"{max(r['ready_s'] for r in got['ranks']):.1f} s after start; "
+                          f"seconds compiling on each rank: {each}", flush=True)
     report(results, list(trees), args.ranks, args.against)
 
 

@@ -15,15 +15,11 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import json
-import os
-import subprocess
-import sys
-import tempfile
 from pathlib import Path
 
+from side_by_side import ROOT, checkout, emit, mpi_job
+
 HERE = Path(__file__).resolve().parent
-ROOT = HERE.parent
 
 
 def worker(scene_path: str, steps: int, start: float) -> None:
@@ -46,22 +42,16 @@ def worker(scene_path: str, steps: int, start: float) -> None:
         digest = hashlib.sha256()
         for key in sorted(arrays):
             digest.update(key.encode() + np.ascontiguousarray(arrays[key]).tobytes())
-        print("RESULT " + json.dumps({
+        emit({
             "builds": sim.n_rebuilds - before[0], "exchanges": d.n_exchanges - before[1],
             "migrated": migrated, "rebalanced": d.n_rebalanced - before[3],
-            "digest": digest.hexdigest()[:16]}))
+            "digest": digest.hexdigest()[:16]})
 
 
 def one_job(tree: Path, args) -> dict:
-    env = dict(os.environ, PYTHONPATH=str(tree), NUMBA_NUM_THREADS="1")
-    cmd = [str(Path(sys.executable).parent / "mpiexec"), "-n", str(args.ranks), sys.executable,
-           str(Path(__file__).resolve()), "--worker", str(Path(args.scene).resolve()),
-           "--steps", str(args.steps), "--from", str(args.start)]
-    done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True)
-    for line in done.stdout.splitlines():
-        if line.startswith("RESULT "):
-            return json.loads(line[len("RESULT "):])
-    raise SystemExit(f"job failed ({' '.join(cmd)}):\n{done.stdout}\n{done.stderr}")
+    return mpi_job(tree, args.ranks, [str(Path(__file__).resolve()), "--worker",
+                                      str(Path(args.scene).resolve()), "--steps",
+                                      str(args.steps), "--from", str(args.start)])
 
 
 def main() -> None:
@@ -75,27 +65,17 @@ def main() -> None:
     args = ap.parse_args()
     if args.worker:
         return worker(args.scene, args.steps, args.start)
-    trees = [("this tree", ROOT)]
-    with tempfile.TemporaryDirectory() as tmp:
-        if args.against:
-            old = Path(tmp) / "old"
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "-q", "--detach",
-                            str(old), args.against], check=True)
-            trees.append((args.against, old))
-        try:
-            print(f"{Path(args.scene).name}, {args.ranks} ranks, {args.steps} steps from "
-                  f"t = {args.start:g} s")
-            print("| code | builds | exchanges | share | migrated | rebalanced | state digest |")
-            print("|---|---|---|---|---|---|---|")
-            for label, tree in trees:
-                r = one_job(tree, args)
-                print(f"| {label} | {r['builds']} | {r['exchanges']} | "
-                      f"{r['exchanges'] / max(r['builds'], 1):.2f} | {r['migrated']} | "
-                      f"{r['rebalanced']} | {r['digest']} |", flush=True)
-        finally:
-            if args.against:
-                subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force",
-                                str(Path(tmp) / "old")], check=False)
+    with checkout(args.against) as old:
+        trees = [("this tree", ROOT)] + ([(args.against, old)] if old else [])
+        print(f"{Path(args.scene).name}, {args.ranks} ranks, {args.steps} steps from "
+              f"t = {args.start:g} s")
+        print("| code | builds | exchanges | share | migrated | rebalanced | state digest |")
+        print("|---|---|---|---|---|---|---|")
+        for label, tree in trees:
+            r = one_job(tree, args)
+            print(f"| {label} | {r['builds']} | {r['exchanges']} | "
+                  f"{r['exchanges'] / max(r['builds'], 1):.2f} | {r['migrated']} | "
+                  f"{r['rebalanced']} | {r['digest']} |", flush=True)
 
 
 if __name__ == "__main__":

@@ -82,7 +82,8 @@ def claim_folder(out_dir: Path, scene, restart, overwrite: bool, lock: FolderLoc
     (``overwrite``); SceneError if another job holds the folder, or if it holds another run and
     ``overwrite`` is false."""
     lock.acquire()
-    found = [name for name in RUN_FILES if name in run_files(out_dir)]
+    present = run_files(out_dir)
+    found = [name for name in RUN_FILES if name in present]
     if not found:
         return []
     if restart is not None and not overwrite and _same_scene(out_dir / "scene.toml", scene):

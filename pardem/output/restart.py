@@ -137,10 +137,11 @@ def _check_restored(path, arrays: dict[str, np.ndarray], ps) -> None:
     particles must be the scene's (ids, kinds, radii, masses, the wall disks' places on their
     rings: bit for bit) and every state value finite, else the restart is refused instead of
     continuing from garbage."""
-    for key in ("gid", "kind", "radius", "mass", "phi0", "e0"):  # e0, phi0: wall disks' places
-        # e0 = (cos, sin) phi0 may differ by an ulp between numpy builds: a checkpoint moves
-        differ = (np.abs(np.asarray(arrays[key]) - ps.e0) > 1e-12 if key == "e0"
-                  else np.asarray(arrays[key]) != getattr(ps, key))
+    # e0 = (cos, sin) phi0 may differ by an ulp between numpy builds: a checkpoint moves
+    for key, tol in (("gid", 0), ("kind", 0), ("radius", 0), ("mass", 0), ("phi0", 0),
+                     ("e0", 1e-12)):  # phi0, e0: the wall disks' places on their rings
+        got, want = np.asarray(arrays[key]), getattr(ps, key)  # masses of wall disks: inf
+        differ = got != want if tol == 0 else ~(np.abs(got - want) <= tol)  # NaN differs
         bad = np.flatnonzero(differ.reshape(differ.shape[0], -1).any(axis=1))
         if bad.size:
             raise SceneError(f"--restart {path}: corrupted checkpoint: {key} of particle row "

@@ -232,10 +232,8 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
         pack_particles(ps, kept, own)
         for r in range(n_arr):
             copy_values(own[kept.size + r], arrivals[r])
-        gids = np.empty(own.shape[0], np.int64)  # column 0: gid; kept, then each arrival run
-        for r in range(gids.size):
-            gids[r] = int(own[r, 0])
-        own = own[run_order(gids, gids.size)]
+        # column 0: gid; the kept rows, then each sender's arrivals: ascending runs
+        own = own[run_order(own[:, 0].astype(np.int64), own.shape[0])]
         walls = np.empty((n_local - n_owned, width))
         pack_particles(ps, np.arange(n_owned, n_local), walls)
     if n_sp:
