@@ -51,7 +51,7 @@ def main(argv: list[str] | None = None) -> int:
                            "steps and an estimated run time (runs nothing)")
     check.add_argument("scene", help="scene file (TOML)")
     avg = sub.add_parser("average", help="ring-average the snapshots of a run folder")
-    avg.add_argument("run_dir", help="run folder (scene.toml + particles.h5)")
+    avg.add_argument("run_dir", help="run folder (scene.toml + snapshots/)")
     avg.add_argument("--start", type=seconds, help="s (default: the scene's [averaging] start)")
     avg.add_argument("--end", type=seconds, help="s (default: the scene's [averaging] end)")
     avg.add_argument("--ring-width", type=metres,

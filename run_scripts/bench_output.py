@@ -6,7 +6,7 @@
 Runs the scene through its compression (to --at seconds, default 2.5 s: dense, ~5000 contacts),
 then times on rank 0, medians over --repeats calls:
 - ``gather``: collecting particles, contacts and flat-ring contacts from all ranks to rank 0;
-- ``write``: the HDF5 group plus the regenerated XDMF indexes, for the first snapshots of a run
+- ``write``: the snapshot file plus the regenerated XDMF indexes, for the first snapshots of a run
   and for snapshots number 230-240 (the index lists every earlier snapshot, so it grows);
 - ``snapshot``: Simulation.write_snapshot as the run loop calls it (gather + write).
 Prints one table; the numbers go into the issue notes.
@@ -74,7 +74,7 @@ def main() -> None:
             for _ in range(230 - args.repeats):
                 write()
             late = timed(write, 10, MPI.COMM_SELF)
-            size = (out / "particles.h5").stat().st_size / next(counter)
+            size = sum(p.stat().st_size for p in (out / "snapshots").iterdir()) / next(counter)
             rows = [("particles", parts["id"].size), ("contacts", contacts["ids"].shape[0]),
                     ("ranks", comm.size), ("gather (ms)", f"{t_gather:.2f}"),
                     ("write, snapshots 1-20 (ms)", f"{first:.2f}"),

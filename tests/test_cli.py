@@ -132,7 +132,7 @@ def test_a_folder_holding_another_run_needs_overwrite(tmp_path, capsys):
     capsys.readouterr()
     assert main(["run", scene, "--out", out, "--end", "0.01", "--quiet"]) == 2
     err = capsys.readouterr().err
-    assert "holds another run" in err and "particles.h5" in err and "--overwrite" in err
+    assert "holds another run" in err and "snapshots" in err and "--overwrite" in err
     assert [s["time"] for s in pardem.read_snapshots(out)] == before  # untouched
     assert main(["run", scene, "--out", out, "--end", "0.01", "--quiet", "--overwrite"]) == 0
     after = [s["time"] for s in pardem.read_snapshots(out)]
@@ -202,16 +202,17 @@ def test_average_and_plot_of_damaged_output_files_say_so_in_one_line(tmp_path, c
 
     scene = (Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml").read_text()
     (tmp_path / "scene.toml").write_text(scene)
-    (tmp_path / "particles.h5").write_text("not HDF5")
+    (tmp_path / "snapshots").mkdir()
+    (tmp_path / "snapshots" / "000000.h5").write_text("not HDF5")
     (tmp_path / "rings.h5").write_text("not HDF5")
     for command in (["average", str(tmp_path)], ["plot", str(tmp_path)]):
         assert main(command) == 2
         err = capsys.readouterr().err
         assert err.startswith(f"pardem: error: {tmp_path}: its output files cannot be read (")
         assert len(err.splitlines()) == 1 and "Traceback" not in err
-    (tmp_path / "particles.h5").unlink()
-    with h5py.File(tmp_path / "particles.h5", "w") as f:
-        f.create_group("snapshots/000001")  # a snapshot without its time and arrays
+    (tmp_path / "snapshots" / "000000.h5").unlink()
+    with h5py.File(tmp_path / "snapshots" / "000001.h5", "w") as f:
+        f.attrs["format"] = "pardem-snapshot"  # a snapshot without its time and arrays
     assert main(["average", str(tmp_path)]) == 2
     assert "its output files cannot be read" in capsys.readouterr().err
 

@@ -163,17 +163,23 @@ def test_pardem_run_on_2_ranks_writes_the_serial_snapshots(tmp_path):
     serial_log = (tmp_path / "serial" / "log.txt").read_text()
     assert "forces+integration" in serial_log and "waiting" not in serial_log
     # the files themselves: every dataset but the owning rank, and the XDMF indexes
-    with h5py.File(tmp_path / "serial" / "particles.h5") as s, \
-            h5py.File(tmp_path / "mpi" / "particles.h5") as p:
-        names, others = [], []
-        s.visit(names.append)
-        p.visit(others.append)
-        assert sorted(names) == sorted(others)
-        datasets = [n for n in names if isinstance(s[n], h5py.Dataset)]
-        assert len(datasets) > 50
-        for name in datasets:
-            if not name.endswith("/rank"):
-                np.testing.assert_array_equal(s[name][()], p[name][()], name)
+    files = sorted(p.name for p in (tmp_path / "serial" / "snapshots").iterdir())
+    assert files == sorted(p.name for p in (tmp_path / "mpi" / "snapshots").iterdir())
+    n_datasets = 0
+    for file in files:
+        with h5py.File(tmp_path / "serial" / "snapshots" / file) as s, \
+                h5py.File(tmp_path / "mpi" / "snapshots" / file) as p:
+            names, others = [], []
+            s.visit(names.append)
+            p.visit(others.append)
+            assert sorted(names) == sorted(others)
+            assert dict(s.attrs) == dict(p.attrs)
+            datasets = [n for n in names if isinstance(s[n], h5py.Dataset)]
+            n_datasets += len(datasets)
+            for name in datasets:
+                if name != "rank":
+                    np.testing.assert_array_equal(s[name][()], p[name][()], name)
+    assert n_datasets > 50
     for name in ("particles.xdmf", "contacts.xdmf"):
         assert (tmp_path / "serial" / name).read_text() == (tmp_path / "mpi" / name).read_text()
     with h5py.File(tmp_path / "serial" / "checkpoint.h5") as s, \

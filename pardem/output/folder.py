@@ -12,14 +12,16 @@ from __future__ import annotations
 
 import fcntl
 import os
+import shutil
 import socket
 import time
 from pathlib import Path
 
 from ..scene import SceneError, load_scene
 
-RUN_FILES = ("scene.toml", "log.txt", "checkpoint.h5", "particles.h5", "particles.xdmf",
-             "contacts.xdmf", "rings.h5", "rings.csv", "rings.vtu")
+RUN_FILES = ("scene.toml", "log.txt", "checkpoint.h5", "snapshots", "particles.xdmf",
+             "contacts.xdmf", "rings.h5", "rings.csv", "rings.vtu",
+             "particles.h5")  # the snapshots of earlier pardem versions
 
 
 LOCK = ".pardem-lock"
@@ -102,7 +104,7 @@ def claim_folder(out_dir: Path, scene, restart, overwrite: bool, lock: FolderLoc
     for name in found:
         path = out_dir / name
         if path.resolve() != keep:  # the checkpoint being continued from stays
-            path.unlink()
+            shutil.rmtree(path) if path.is_dir() else path.unlink()
             removed.append(name)
     return removed
 

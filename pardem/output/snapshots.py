@@ -1,12 +1,12 @@
-"""Particle snapshots: ``particles.h5`` plus the XDMF indexes ``particles.xdmf`` and
-``contacts.xdmf`` that ParaView, pyvista and meshio open (see ``xdmf.py``).
+"""Particle snapshots: one HDF5 file per snapshot in ``DIR/snapshots/``, plus the XDMF indexes
+``particles.xdmf`` and ``contacts.xdmf`` that ParaView, pyvista and meshio open (``xdmf.py``).
 
-Stage: output. Layout of ``particles.h5`` (all SI units; particle rows sorted by id; 2D vectors
-are stored with a third component z = 0, as ParaView wants; ``read_snapshots`` drops it):
+Stage: output (rank 0). Layout of ``snapshots/NNNNNN.h5`` (NNNNNN = 0, 1, ...: the snapshot's
+index on the run's snapshot grid; all SI units; particle rows sorted by id; 2D vectors are stored
+with a third component z = 0, as ParaView wants; ``read_snapshots`` drops it):
 
-    /                         attrs: format = "pardem-snapshots", version = 2
-    /topology/vertices_N      [N,1] int32 0..N-1: the Polyvertex connectivity for N particles
-    /snapshots/NNNNNN/        attrs: time (s), step; one group per snapshot, NNNNNN = 0, 1, ...
+    /                  attrs: format = "pardem-snapshot", version = 3, time (s), step
+        topology [N,1] int32 0..N-1: the Polyvertex connectivity for N particles
         id [N] int64, kind [N] int32 (0 free, 1 inner wall disk, 2 outer wall disk),
         rank [N] int32 (owning MPI rank; -1 for wall disks, which every rank moves),
         position [N,3] m, velocity [N,3] m/s, omega [N] rad/s, theta [N] rad,
@@ -24,11 +24,13 @@ are stored with a third component z = 0, as ParaView wants; ``read_snapshots`` d
                   normal_force [K] N, tangential_force [K,3] N, spring [K,3] m,
                   displacement [K,3] m
 
-Crash safety: a snapshot group is written under a temporary name and renamed when complete, the
-file is opened, appended and closed for every snapshot, and the XDMF indexes are rewritten
-(temporary name, then rename) only after the HDF5 file is closed, so they list complete
-snapshots only (tested by killing runs with SIGKILL at random moments). A process killed
-between snapshots leaves every earlier snapshot readable.
+Crash safety (a kill -9 at any moment damages at most the snapshot being written): a file is
+written as ``NNNNNN.h5.tmp`` and renamed when closed, so a completed file is never opened for
+writing again; the XDMF indexes are rewritten under a temporary name and renamed after the
+file is in place, so they list completed files only. A run continued from a checkpoint first
+drops the abandoned tail (snapshots at or after its first index) from the indexes, then
+deletes those files, highest first: a kill in between leaves the old run's series, one index
+shorter. Tested by ``run_scripts/kill_loop.py`` (hundreds of kill -9 at random moments).
 """
 
 from __future__ import annotations
@@ -42,7 +44,9 @@ import numpy as np
 
 from . import xdmf
 
-FILE = "particles.h5"
+FOLDER = xdmf.FOLDER
+FORMAT = "pardem-snapshot"
+VERSION = 3
 VECTORS = ("position", "velocity", "force", "normal", "tangential_force", "spring",
            "displacement")
 SMALL_INTS = ("kind", "rank", "coordination", "ring", "sliding")  # int32: every reader knows it
@@ -52,42 +56,50 @@ def write_snapshot(out_dir: str | os.PathLike, index: int, time: float, step: in
                    particles: dict[str, np.ndarray],
                    contacts: dict[str, np.ndarray] | None,
                    ring_contacts: dict[str, np.ndarray] | None = None) -> None:
-    """Snapshot number ``index`` into DIR/particles.h5 and the XDMF indexes. Snapshots of the
-    same or a later index (left by a run that this one continues from a checkpoint) are
-    removed first: they belong to the abandoned tail of that run."""
+    """Snapshot number ``index`` into DIR/snapshots/ and the XDMF indexes. Snapshots of a later
+    index (the abandoned tail of a run that this one continues from a checkpoint) are removed
+    first; one of the same index is replaced."""
     out_dir = Path(out_dir)
-    with h5py.File(out_dir / FILE, "a") as h5:
-        h5.attrs["format"] = "pardem-snapshots"
-        h5.attrs["version"] = 2
+    folder = out_dir / FOLDER
+    folder.mkdir(exist_ok=True)
+    stored = snapshot_indexes(out_dir)
+    tail = [i for i in stored if i > index]
+    if tail or (stored and stored[-1] == index):
+        xdmf.truncate(out_dir, index)
+        for i in reversed(tail):
+            (folder / xdmf.file_name(i)).unlink()
+    for stale in folder.glob("*.tmp"):  # left by a killed writer
+        stale.unlink()
+    path = folder / xdmf.file_name(index)
+    tmp = path.with_name(path.name + ".tmp")
+    with h5py.File(tmp, "w") as h5:
+        h5.attrs.update({"format": FORMAT, "version": VERSION, "time": time, "step": step})
         n = particles["id"].size
-        if f"topology/vertices_{n}" not in h5:
-            h5.create_dataset(f"topology/vertices_{n}",
-                              data=np.arange(n, dtype=np.int32).reshape(n, 1))
-        snaps = h5.require_group("snapshots")
-        name = f"{index:06d}"
-        earlier = any(k < name for k in snaps)
-        for old in [k for k in snaps if k.startswith("_") or k >= name]:
-            del snaps[old]
-        tmp = "_incomplete_" + name
-        g = snaps.create_group(tmp)
-        g.attrs["time"] = time
-        g.attrs["step"] = step
-        parts = _write_table(g, particles)
+        h5.create_dataset("topology", data=np.arange(n, dtype=np.int32).reshape(n, 1))
+        parts = _write_table(h5, particles)
         if contacts is not None:
             cells = np.searchsorted(particles["id"], contacts["ids"]).astype(np.int32)
-            links = _write_table(g.create_group("contacts"), {**contacts, "cells": cells})
+            links = _write_table(h5.create_group("contacts"), {**contacts, "cells": cells})
         if ring_contacts is not None:
-            _write_table(g.create_group("ring_contacts"), ring_contacts)
-        snaps.move(tmp, name)
-    if earlier and not (out_dir / f"{xdmf.PARTICLES}.xdmf").exists():
-        with h5py.File(out_dir / FILE, "r") as h5:
-            xdmf.rebuild(h5, out_dir, FILE)
+            _write_table(h5.create_group("ring_contacts"), ring_contacts)
+    os.replace(tmp, path)
+    if any(i < index for i in stored) and not (out_dir / f"{xdmf.PARTICLES}.xdmf").exists():
+        xdmf.rebuild(out_dir)  # an index lost (deleted by hand): rebuilt from the files
         return
-    xdmf.append(out_dir, xdmf.PARTICLES, index, xdmf.particle_grid(FILE, index, time, parts))
+    xdmf.append(out_dir, xdmf.PARTICLES, index, xdmf.particle_grid(index, time, parts))
     if contacts is not None:
         xdmf.append(out_dir, xdmf.CONTACTS, index,
-                    xdmf.contact_grid(FILE, index, time, parts, links)
+                    xdmf.contact_grid(index, time, parts, links)
                     if contacts["ids"].shape[0] else None)
+
+
+def snapshot_indexes(out_dir: str | os.PathLike) -> list[int]:
+    """The indexes of the completed snapshot files in a run folder, ascending."""
+    folder = Path(out_dir) / FOLDER
+    if not folder.is_dir():
+        return []
+    return sorted(int(p.name[:-3]) for p in folder.iterdir()
+                  if p.name.endswith(".h5") and p.name[:-3].isdigit())
 
 
 def _write_table(group: h5py.Group, table: dict[str, np.ndarray]) -> xdmf.Arrays:
@@ -107,20 +119,26 @@ def read_snapshots(out_dir: str | os.PathLike) -> Iterator[dict]:
     """Yield the snapshots of a run folder in time order: dicts with ``time``, ``step``, the
     particle arrays keyed as in the layout above, and ``contacts`` and ``ring_contacts`` (dicts,
     or absent)."""
-    path = Path(out_dir) / FILE
-    if not path.exists():
-        raise FileNotFoundError(f"no snapshots: {path} does not exist")
-    with h5py.File(path, "r") as h5:
-        names = sorted(k for k in h5.get("snapshots", {}) if not k.startswith("_"))
-        for name in names:
-            g = h5["snapshots"][name]
-            snap = {"time": float(g.attrs["time"]), "step": int(g.attrs["step"])}
-            for key, ds in g.items():
+    out_dir = Path(out_dir)
+    indexes = snapshot_indexes(out_dir)
+    if not indexes:
+        if (out_dir / "particles.h5").exists():
+            raise FileNotFoundError(f"{out_dir}: its snapshots are in one particles.h5, the "
+                                    "layout of earlier pardem versions (one file per snapshot "
+                                    "in snapshots/ now); rerun, or read it with that version")
+        raise FileNotFoundError(f"no snapshots: {out_dir / FOLDER} holds no snapshot files")
+    for index in indexes:
+        with h5py.File(out_dir / FOLDER / xdmf.file_name(index), "r") as h5:
+            if h5.attrs.get("format") != FORMAT:
+                raise ValueError(f"{h5.filename} is not a pardem snapshot")
+            snap = {"time": float(h5.attrs["time"]), "step": int(h5.attrs["step"])}
+            for key, ds in h5.items():
                 if isinstance(ds, h5py.Dataset):
-                    snap[key] = _read(key, ds)
+                    if key != "topology":
+                        snap[key] = _read(key, ds)
                 else:
                     snap[key] = {k: _read(k, v) for k, v in ds.items()}
-            yield snap
+        yield snap
 
 
 def _read(key: str, ds: h5py.Dataset) -> np.ndarray:

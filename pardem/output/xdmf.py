@@ -1,17 +1,16 @@
-"""XDMF indexes over ``particles.h5``: ``particles.xdmf`` (disks as points) and
+"""XDMF indexes over the snapshot files: ``particles.xdmf`` (disks as points) and
 ``contacts.xdmf`` (contacts as line cells between the two centres: the force-chain network).
 
 Stage: output. Both are temporal collections of one Uniform grid per snapshot whose datasets
-stay in ``particles.h5`` (no data is copied). Each snapshot appends its grid to the index: the
+stay in that snapshot's file ``snapshots/NNNNNN.h5`` (no data is copied; paths are relative to
+the index, so a run folder can be moved). Each snapshot appends its grid to the index: the
 earlier grids are kept as text (grids of the same or a later index, left by a run that a
-restart continues, are dropped), and the file is written under a temporary name and renamed, so
-the index only ever lists complete snapshots. Appending costs the same at snapshot 240 as at
-snapshot 1; rebuilding from the HDF5 file (``rebuild``) is the fallback when an index is
-missing.
+restart continues, are dropped), and the index is written under a temporary name and renamed,
+so it only ever lists complete snapshots. ``rebuild`` recreates both from the files.
 
 Reader notes that shaped the layout:
 - ParaView's default XDMF reader (Xdmf3) shows 0 cells for a Polyvertex topology without a
-  connectivity DataItem, so one is always written (``/topology/vertices_N``).
+  connectivity DataItem, so one is always written (``topology`` in each file).
 - 2D data is stored padded to 3 components (z = 0), as ParaView expects XYZ points and vectors.
 - meshio's ``TimeSeriesReader`` takes points and cells from the first grid only and per-step
   arrays from the attributes; so the positions are also an attribute (``position``), pointing at
@@ -27,6 +26,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+FOLDER = "snapshots"
 PARTICLES = "particles"
 CONTACTS = "contacts"
 SKIP = {PARTICLES: ("contacts", "ring_contacts"), CONTACTS: ("cells", "ids")}
@@ -36,21 +36,24 @@ _TAIL = "</Grid>\n</Domain>\n</Xdmf>\n"
 Arrays = dict[str, tuple[tuple[int, ...], np.dtype]]  # dataset name -> (shape, dtype)
 
 
-def particle_grid(h5_name: str, index: int, time: float, arrays: Arrays) -> str:
+def file_name(index: int) -> str:
+    """The file of snapshot ``index`` in FOLDER."""
+    return f"{index:06d}.h5"
+
+
+def particle_grid(index: int, time: float, arrays: Arrays) -> str:
     """The grid of snapshot ``index`` whose particle datasets (shape, dtype) are ``arrays``."""
-    path = f"/snapshots/{index:06d}"
-    n = arrays["id"][0][0]
-    topo = _topology("Polyvertex", n, 1, h5_name, f"/topology/vertices_{n}", np.int32)
-    return _grid(PARTICLES, index, time, topo, h5_name, path, path, arrays, "Node")
+    h5_name = f"{FOLDER}/{file_name(index)}"
+    topo = _topology("Polyvertex", arrays["id"][0][0], 1, h5_name, "/topology", np.int32)
+    return _grid(PARTICLES, index, time, topo, h5_name, "", "", arrays, "Node")
 
 
-def contact_grid(h5_name: str, index: int, time: float, particle_arrays: Arrays,
-                 arrays: Arrays) -> str:
+def contact_grid(index: int, time: float, particle_arrays: Arrays, arrays: Arrays) -> str:
     """Line cells of snapshot ``index`` over that snapshot's particle positions."""
-    path = f"/snapshots/{index:06d}"
+    h5_name = f"{FOLDER}/{file_name(index)}"
     shape, dtype = arrays["cells"]
-    topo = _topology("Polyline", shape[0], 2, h5_name, f"{path}/contacts/cells", dtype)
-    return _grid(CONTACTS, index, time, topo, h5_name, f"{path}/contacts", path,
+    topo = _topology("Polyline", shape[0], 2, h5_name, "/contacts/cells", dtype)
+    return _grid(CONTACTS, index, time, topo, h5_name, "/contacts", "",
                  {"position": particle_arrays["position"], **arrays}, "Cell")
 
 
@@ -61,31 +64,48 @@ def append(out_dir: Path, kind: str, index: int, grid: str | None) -> None:
     path = out_dir / f"{kind}.xdmf"
     if grid is None and not path.exists():
         return
-    text = path.read_text() if path.exists() else _HEAD.format(kind) + _TAIL
-    last = text.rfind(f'<Grid Name="{kind}_')
-    if last >= 0 and int(text[last + len(kind) + 13:].split('"', 1)[0]) >= index:
-        text = _HEAD.format(kind) + "".join(g for i, g in _grids(text, kind) if i < index) + _TAIL
+    text = _kept(path, kind, index) if path.exists() else _HEAD.format(kind) + _TAIL
     _write_atomic(path, text[:-len(_TAIL)] + (grid or "") + _TAIL)
 
 
-def rebuild(h5: h5py.File, out_dir: Path, h5_name: str) -> None:
-    """Both indexes from every complete snapshot of an open ``particles.h5`` (slow: reads
-    every group; for folders without an index)."""
+def truncate(out_dir: Path, index: int) -> None:
+    """Drop the grids of index >= ``index`` from both indexes (a restart's abandoned tail)."""
+    for kind in (PARTICLES, CONTACTS):
+        path = out_dir / f"{kind}.xdmf"
+        if path.exists():
+            text = _kept(path, kind, index)
+            if len(text) < path.stat().st_size:
+                _write_atomic(path, text)
+
+
+def rebuild(out_dir: Path) -> None:
+    """Both indexes from every snapshot file in ``out_dir`` (reads each file; for folders
+    whose index was lost)."""
     particles, contacts = [], []
-    for name in sorted(k for k in h5.get("snapshots", {}) if not k.startswith("_")):
-        g = h5["snapshots"][name]
-        time, index = float(g.attrs["time"]), int(name)
-        parts = _shapes(g)
-        particles.append(particle_grid(h5_name, index, time, parts))
-        if "contacts" in g and g["contacts"]["cells"].shape[0]:  # no empty grids (append)
-            contacts.append(contact_grid(h5_name, index, time, parts, _shapes(g["contacts"])))
+    for path in sorted((out_dir / FOLDER).glob("[0-9]*.h5")):
+        with h5py.File(path, "r") as h5:
+            time, index = float(h5.attrs["time"]), int(path.name[:-3])
+            parts = _shapes(h5)
+            particles.append(particle_grid(index, time, parts))
+            if "contacts" in h5 and h5["contacts"]["cells"].shape[0]:  # no empty grids
+                contacts.append(contact_grid(index, time, parts, _shapes(h5["contacts"])))
     for kind, grids in ((PARTICLES, particles), (CONTACTS, contacts)):
         if grids:
             _write_atomic(out_dir / f"{kind}.xdmf", _HEAD.format(kind) + "".join(grids) + _TAIL)
 
 
+def _kept(path: Path, kind: str, index: int) -> str:
+    """The index at ``path`` without its grids of index >= ``index``."""
+    text = path.read_text()
+    last = text.rfind(f'<Grid Name="{kind}_')
+    if last >= 0 and int(text[last + len(kind) + 13:].split('"', 1)[0]) >= index:
+        text = _HEAD.format(kind) + "".join(g for i, g in _grids(text, kind) if i < index) + _TAIL
+    return text
+
+
 def _shapes(group: h5py.Group) -> Arrays:
-    return {k: (ds.shape, ds.dtype) for k, ds in group.items() if isinstance(ds, h5py.Dataset)}
+    return {k: (ds.shape, ds.dtype) for k, ds in group.items()
+            if isinstance(ds, h5py.Dataset) and k != "topology"}
 
 
 def _grids(text: str, kind: str) -> list[tuple[int, str]]:
