@@ -140,8 +140,8 @@ def same_checkpoint(a: Path, b: Path) -> bool:
                 and all(np.array_equal(x[k][()], y[k][()]) for k in y))
 
 
-def kill_loop(kills: int, ranks: int, work: Path, seed: int = 0, steps: int = 600,
-              checkpoint_every: int = 50, say=print) -> dict:
+def kill_loop(kills: int, ranks: int, work: Path, seed: int = 0, steps: int = 200,
+              checkpoint_every: int = 20, say=print) -> dict:
     """Run the loop (module docstring) in ``work``; returns the counts."""
     work.mkdir(parents=True, exist_ok=True)
     scene, prep, ref, run = (work / "kill.toml", work / "prep", work / "ref", work / "run")
@@ -209,8 +209,8 @@ def main() -> None:
     ap.add_argument("--kills", type=int, default=500)
     ap.add_argument("--ranks", type=int, default=1)
     ap.add_argument("--seed", type=int, default=0)
-    ap.add_argument("--steps", type=int, default=600, help="steps per run past the prep")
-    ap.add_argument("--checkpoint-every", type=int, default=50, help="steps")
+    ap.add_argument("--steps", type=int, default=200, help="steps per run past the prep")
+    ap.add_argument("--checkpoint-every", type=int, default=20, help="steps")
     ap.add_argument("--work", help="folder for the runs (default: a temporary one)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
