@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+from .memory import needed_bytes, particle_count, size_text
 from .scene import Scene, scene_to_toml
 from .timestep import resolve_dt, smallest_contact_time, stability_limit
 from .walls import global_volume_fraction
@@ -51,6 +52,8 @@ def describe(scene: Scene) -> str:
                  f"{_duration(work / REFERENCE_RATE / 1.7)} on 2 (at "
                  f"{REFERENCE_RATE / 1e6:.0f} M particle-steps/s per rank; plus about a minute "
                  "of compilation on a first run)")
+    lines.append(f"# memory: about {size_text(needed_bytes(scene))} per rank at set-up "
+                 f"({particle_count(scene)} particles with the wall disks)")
     return "\n".join(lines)
 
 

@@ -34,6 +34,7 @@ from .output.folder import FolderLock, claim_folder, lock_unchanged, run_files
 from .output.averages import make_averager, resume, sample_grid
 from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
+from .memory import check_memory
 from .placement import initial_configuration, whole_cell
 from .rebuild import place_idle_walls, rebuild
 from . import stop
@@ -95,6 +96,7 @@ class Simulation(StateViews):
         c = scene.contact
         self.prm = Params(law_params(c, self.dt), rings_of(g), self.dt, skin,
                           c.mu_bottom * c.gravity, math.inf)
+        check_memory(scene, comm)
         init = initial_configuration(scene)
         self.n_free = init.n_free
         self._free_radii = init.radius[:init.n_free].copy()

@@ -122,6 +122,32 @@ def test_more_particles_than_fit_is_refused(tmp_path, capsys):
     assert "outer_start_radius" in err
 
 
+def test_a_scene_too_large_for_the_memory_is_refused_before_allocating(tmp_path, capsys,
+                                                                        monkeypatch):
+    """10^9 disks in a cell wide enough for them (62 m to 300 m rings) pass every check of the
+    file; at ~1 kB per particle they need ~932 GiB per rank. Refused before the placement
+    allocates anything (without the check numpy raises MemoryError there), on a node that has
+    64 GiB available."""
+    import pardem.memory
+    from helpers import couette_scene
+
+    from pardem.scene import write_scene
+
+    monkeypatch.setattr(pardem.memory, "available_bytes", lambda: 64.0 * 2**30)
+    scene = couette_scene(counts=(10**9, 0), geometry={
+        "inner_radius": 62.0, "outer_radius": 300.0, "outer_start_radius": 320.0,
+        "compression_time": 100.0, "omega_inner": 1e-3, "inner_wall_count": 8000,
+        "outer_wall_count": 8000})
+    path = tmp_path / "huge.toml"
+    write_scene(scene, path)
+    assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err
+    assert f"pardem: error: {path}: 1000016000 particles (wall disks included) need about" in err
+    assert "932 GiB per rank" in err  # (1,000,016,000 x 1000 B + 200 MB) / 2^30 = 931.5 and "only 64 GiB per rank is available" in err
+    assert main(["check", str(path)]) == 0
+    assert "# memory: about 932 GiB per rank at set-up" in capsys.readouterr().out
+
+
 def test_a_folder_holding_another_run_needs_overwrite(tmp_path, capsys):
     """A new run never mixes its files with another run's: refused without --overwrite, which
     replaces that run (no snapshot of the old run is left); a restart of the same scene into

@@ -55,6 +55,21 @@ def decomposition(comm, reach_width: float, inner_radius: float = 0.0, margin: f
     return Decomposition(comm, reach_width, inner_radius, margin=margin)
 
 
+def smallest_node_share(comm, amount: float) -> float:
+    """``amount`` (a node's resource) divided among the ranks on this node, the smallest such
+    share of any node (collective; ``amount`` itself on one rank)."""
+    if comm is None or comm.Get_size() == 1:
+        return amount
+    from mpi4py import MPI
+
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    try:
+        share = amount / node.Get_size()
+    finally:
+        node.Free()
+    return comm.allreduce(share, op=MPI.MIN)
+
+
 def abort(comm, code: int = 1) -> None:
     """End every rank of ``comm`` (after an error on this one), so none waits forever. The
     short pause lets mpiexec's proxy forward what this rank just wrote to stderr: an immediate
