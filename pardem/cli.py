@@ -135,6 +135,16 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr.write(f"pardem: {e}; the checkpoint {out / 'checkpoint.h5'} holds this "
                              f"state: continue with --restart {out}\n")
         return 128 + e.signum
+    except KeyboardInterrupt:  # Ctrl-C outside the time-step loop: set-up, compiling, the end
+        import signal
+
+        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second one must not skip Abort
+        who = "" if comm is None else f"rank {rank}: "
+        sys.stderr.write(f"pardem: {who}interrupted (SIGINT) outside the time-step loop; "
+                         f"{out / 'checkpoint.h5'} holds the last checkpoint, if any\n")
+        sys.stderr.flush()
+        abort(comm, 130)
+        return 130
     except BaseException as e:
         full = isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT)
         if full:  # checkpoints go to a temporary name first: the last one is whole

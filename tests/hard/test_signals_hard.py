@@ -100,3 +100,27 @@ def test_repeated_sigint_to_one_rank_stops_every_rank(tmp_path, which):
         time.sleep(0.002)
     code, err = stopped(proc)
     check_stopped(code, err, signal.SIGINT, out, scene, 2)
+
+
+@pytest.mark.parametrize("ranks,which", [(1, 0), (2, 1)])
+def test_sigint_during_set_up_is_one_line_and_no_hang(tmp_path, ranks, which):
+    """Ctrl-C before the time-step loop (reading the scene, building the state, compiling):
+    Python's KeyboardInterrupt, turned into one line and exit 130 by the rank that got it; a
+    parallel job ends on every rank instead of waiting in set-up's collectives."""
+    scene = tmp_path / "setup.toml"
+    write_scene(couette_scene(counts=(260, 40), geometry=CELL, name="setup"), scene)
+    cmd = [sys.executable, "-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / "o"),
+           "--quiet"]
+    if ranks > 1:
+        cmd = [mpiexec(), "-n", str(ranks), *cmd]
+    proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            env=ENV, start_new_session=True)
+    first = proc.stderr.readline()  # written after the scene is read, before the set-up
+    assert "building the initial state" in first, first
+    pids = ranks_of(tmp_path / "o")
+    assert len(pids) == ranks, pids
+    os.kill(pids[which], signal.SIGINT)
+    code, err = stopped(proc)
+    assert code == 130 if ranks == 1 else code != 0, err
+    assert "interrupted (SIGINT) outside the time-step loop" in err, err
+    assert "Traceback" not in err, err
