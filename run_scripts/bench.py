@@ -1,10 +1,12 @@
-"""Benchmark: flow-particle-steps per second on couette_B after compression, on 1 and 2 ranks,
-and start-up cost; optionally against an older commit, side by side.
+"""Benchmark: flow-particle-steps per second of a Couette scene after its compression, on 1
+and 2 ranks, and start-up cost; optionally against an older commit, side by side.
 
-    python run_scripts/bench.py [--steps 20000] [--repeats 5] [--ranks 1 2] [--startup]
-                                [--eta off|on|both] [--against REV]
+    python run_scripts/bench.py [--scene run_scripts/couette_B.toml] [--at 2.5] [--steps 20000]
+                                [--repeats 5] [--ranks 1 2] [--startup] [--eta off|on|both]
+                                [--against REV]
 
-Compresses scene B once (t = 0 .. 2.5 s, not timed) and checkpoints it. Then times
+Runs the scene once to ``--at`` seconds (default 2.5 s: B's compression ends at 2 s; not timed)
+and checkpoints it. Then times
 ``--repeats`` rounds of ``--steps`` shear steps, each round one run per rank count (in turn),
 each run a fresh ``mpiexec -n P`` job restarted from that checkpoint (NUMBA_NUM_THREADS=1, one
 core per rank; the clock starts after warm-up steps that include two neighbour builds and
@@ -37,37 +39,46 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 HERE = Path(__file__).resolve().parent
 
 
-def scene_b(eta: bool):
-    """couette_B whose in-situ averages use eta (tracked) or the spring (not tracked); the
-    benchmark writes no output, so nothing else asks for eta."""
+SCENE = HERE / "couette_B.toml"
+
+
+def scene_of(path: Path, eta: bool):
+    """The scene, its in-situ averages using eta (tracked) or the spring (not tracked); the
+    benchmark writes no output, so nothing else asks for eta. A scene without [averaging]
+    tracks no eta either way."""
     import dataclasses
 
     from pardem.scene import load_scene
 
-    scene = load_scene(HERE / "couette_B.toml")
+    scene = load_scene(path)
+    if scene.averaging is None:
+        return scene
     return dataclasses.replace(scene, averaging=dataclasses.replace(
         scene.averaging, displacement="eta" if eta else "spring"))
 
 
-def compress(ckpt: Path) -> None:
+def compress(ckpt: Path, scene: Path = SCENE, at: float = 2.5) -> None:
     from pardem.simulation import Simulation
 
-    sim = Simulation(scene_b(False))
     t0 = time.perf_counter()
-    sim.run(end=2.5, progress=False)
-    print(f"compression to t = 2.5 s: {time.perf_counter() - t0:.1f} s wall, "
-          f"{sim.step} steps, largest overlap {100 * sim.max_overlap():.2f} % d")
+    sim = Simulation(scene_of(scene, False))
+    setup = time.perf_counter() - t0
+    t0 = time.perf_counter()
+    sim.run(end=at, progress=False)
+    print(f"{scene.name}: set-up {setup:.1f} s; to t = {at} s: {time.perf_counter() - t0:.1f} s "
+          f"wall, {sim.step} steps, {sim.n_rebuilds} builds, largest overlap "
+          f"{100 * sim.max_overlap():.2f} % d")
     sim.write_checkpoint(ckpt)
 
 
-def worker(ckpt: str, steps: int, eta: bool) -> None:
+def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
     """One timed run (under mpiexec): prints a JSON line on rank 0."""
     from mpi4py import MPI
 
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD
-    run = Simulation(scene_b(eta), restart=ckpt, comm=comm if comm.size > 1 else None)
+    run = Simulation(scene_of(scene, eta), restart=ckpt, comm=comm if comm.size > 1 else None)
     assert run.contact.eta == eta
     # compiled code loaded and caches warm, the builds' code included
     builds = run.n_rebuilds
@@ -91,14 +102,16 @@ def worker(ckpt: str, steps: int, eta: bool) -> None:
 
 
 def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
-               against: str | None = None) -> dict[int, float]:
+               against: str | None = None, scene: Path = SCENE,
+               at: float = 2.5) -> dict[int, float]:
     """Median flow-particle-steps/s for each rank count (also printed, with every run).
 
     The rank counts take turns (round k runs every count once), so that the machine's slow
     drifts (a shared VM: +-15 % over minutes) hit every count alike; the speed-up is also given
     as the median of the per-round ratios, each from runs a few seconds apart. ``eta`` "both":
     each rank count runs without and with eta in turn; the cost of eta is printed likewise.
-    ``against``: a git revision whose code runs each round too (see the module docstring)."""
+    ``against``: a git revision whose code runs each round too (see the module docstring; its
+    bench.py must know --scene unless ``scene`` is couette_B)."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     mpiexec = Path(sys.executable).parent / "mpiexec"
     variants = {"off": [False], "on": [True], "both": [False, True]}[eta]
@@ -112,8 +125,7 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
             subprocess.run(["git", "-C", str(HERE.parent), "worktree", "add", "--detach",
                             str(trees["old"]), against], check=True, capture_output=True)
             # both codes run this tree's scene (REV's may have had another wall layout)
-            shutil.copyfile(HERE / "couette_B.toml",
-                            trees["old"] / "run_scripts" / "couette_B.toml")
+            shutil.copyfile(SCENE, trees["old"] / "run_scripts" / "couette_B.toml")
         try:
             ckpts = {}
             for code, tree in trees.items():
@@ -121,14 +133,16 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
                 print(f"{code} code ({tree}):", end=" ", flush=True)
                 subprocess.run([sys.executable, "-c", "import sys; from pathlib import Path; "
                                 f"sys.path[:0] = [{str(tree)!r}, {str(tree / 'run_scripts')!r}]; "
-                                f"import bench; bench.compress(Path({str(ckpts[code])!r}))"],
+                                f"import bench; bench.compress(Path({str(ckpts[code])!r})" +
+                                ("" if scene == SCENE else f", Path({str(scene)!r}), {at!r}") +
+                                ")"],
                                check=True, env=dict(env, PYTHONPATH=str(tree)))
             for k in range(repeats):
                 for p in ranks:
                     for e in variants:
                         for code in codes:
                             res = last[code, p, e] = _worker_run(
-                                mpiexec, trees[code], ckpts[code], steps, e, p, env)
+                                mpiexec, trees[code], ckpts[code], steps, e, p, env, scene)
                             rates[code, p, e].append(res["n_free"] * steps / res["wall"])
                             print(f"{code if against else ''} {p} rank(s){', eta' if e else ''}, "
                                   f"run {k + 1}: {steps} steps in {res['wall']:.3f} s -> "
@@ -177,7 +191,7 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
                   f"{d['neighbours']:5d} {d['sent']:10d} {nbytes:16d} {msgs:10d} "
                   f"{d['step_us']:8.1f} {d['wait_us']:10.1f} {d['rebuild_us']:16.1f}")
         medians[p] = statistics.median(rates[p])
-        print(f"couette_B, {res['n_free']} flow particles, {p} rank(s): median "
+        print(f"{scene.stem}, {res['n_free']} flow particles, {p} rank(s): median "
               f"{medians[p] / 1e6:.2f} M flow-particle-steps/s over {repeats} runs", flush=True)
     if 1 in medians:
         for p in medians:
@@ -190,12 +204,12 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
 
 
 def _worker_run(mpiexec: Path, tree: Path, ckpt: Path, steps: int, eta: bool, ranks: int,
-                env: dict) -> dict:
+                env: dict, scene: Path = SCENE) -> dict:
     """One timed run of the code in ``tree`` (its own run_scripts/bench.py worker)."""
     out = subprocess.run(
         [str(mpiexec), "-n", str(ranks), sys.executable, "-m", "mpi4py",
          str(tree / "run_scripts" / "bench.py"), "--worker", str(ckpt), "--steps", str(steps),
-         "--eta", "on" if eta else "off"],
+         "--eta", "on" if eta else "off", *(["--scene", str(scene)] if scene != SCENE else [])],
         check=True, capture_output=True, text=True, env=dict(env, PYTHONPATH=str(tree)),
         timeout=3600)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -217,6 +231,8 @@ def startup() -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--scene", type=Path, default=SCENE, help="a Couette scene (default B)")
+    ap.add_argument("--at", type=float, default=2.5, help="s: timed runs start here")
     ap.add_argument("--steps", type=int, default=20000)
     ap.add_argument("--repeats", type=int, default=5)
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
@@ -227,11 +243,12 @@ def main() -> None:
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        worker(args.worker, args.steps, args.eta == "on")
+        worker(args.worker, args.steps, args.eta == "on", args.scene.resolve())
         return
     if args.startup:
         startup()
-    throughput(args.steps, args.repeats, args.ranks, args.eta, args.against)
+    throughput(args.steps, args.repeats, args.ranks, args.eta, args.against,
+               args.scene.resolve(), args.at)
 
 
 if __name__ == "__main__":

@@ -1,0 +1,36 @@
+"""The shipped scaled cells (run_scripts/couette_B_30k/_300k/_1M.toml) are B scaled by k at
+fixed particle size: the free disks' area fraction and the wall disks' spacing are B's,
+computed here from the files' own numbers, and each file is what scaled_scene.py writes."""
+
+import math
+import sys
+import tomllib
+from pathlib import Path
+
+import pytest
+
+RUN_SCRIPTS = Path(__file__).parents[1] / "run_scripts"
+sys.path.insert(0, str(RUN_SCRIPTS))
+from scaled_scene import scaled  # noqa: E402
+
+
+def numbers(path: Path):
+    d = tomllib.loads(path.read_text())
+    g = d["geometry"]
+    area = math.pi * (g["outer_radius"] ** 2 - g["inner_radius"] ** 2)
+    free = sum(s["count"] * math.pi * s["diameter"] ** 2 / 4 for s in d["species"]) / area
+    spacing = (2 * math.pi * g["inner_radius"] / g["inner_wall_count"],
+               2 * math.pi * g["outer_radius"] / g["outer_wall_count"])
+    return free, spacing, sum(s["count"] for s in d["species"])
+
+
+@pytest.mark.parametrize("name,k,n", [("30k", 3.2, 30096), ("300k", 10, 293900),
+                                      ("1M", 18.5, 1005872)])
+def test_scaled_cells_keep_bs_packing_and_roughness(name, k, n):
+    path = RUN_SCRIPTS / f"couette_B_{name}.toml"
+    assert path.read_text() == scaled(k)
+    free_b, spacing_b, n_b = numbers(RUN_SCRIPTS / "couette_B.toml")
+    free, spacing, count = numbers(path)
+    assert count == n == pytest.approx(n_b * k * k, abs=1)
+    assert free == pytest.approx(free_b, rel=1e-4)  # counts rounded to integers
+    assert spacing == pytest.approx(spacing_b, rel=2e-3)  # wall counts rounded too
