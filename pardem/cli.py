@@ -120,7 +120,8 @@ def main(argv: list[str] | None = None) -> int:
                 f"pardem: {scene.info.name}: {sim.n_free} particles, dt = {sim.dt:.4g} s, "
                 f"{sim.decomp.describe()}, ready in {time.perf_counter() - t_start:.2f} s; "
                 f"output in {out}\n")
-        with catching_signals():  # SIGINT/SIGTERM: every rank stops at a step, checkpointed
+        # SIGINT/SIGTERM: every rank stops at a step, checkpointed; this process only ends then
+        with catching_signals(restore=argv is not None):  # argv given: called from Python
             sim.run(end=args.end, progress=not args.quiet)
     except SceneError as e:
         if root:

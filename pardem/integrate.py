@@ -47,9 +47,10 @@ def kick(ps, n_owned, h, prm, opts, closing):
 @nb.njit(**INLINE)
 def drift(ps, clock, prm, opts, scratch):
     """Move free bodies and walls to t + dt. Returns ``(bad, disp, v2)``: the index of a
-    particle that became non-finite or left the cell (-1: none), the largest displacement since
-    the neighbour build plus the ring's, and the largest squared speed (m^2/s^2). ``scratch``:
-    a (2, n_owned) work array."""
+    particle that became non-finite or left the cell (-1: none), the largest displacement of a
+    free particle since the neighbour build plus the outer ring's, and the largest squared
+    speed of any body (m^2/s^2). The wall disks' displacement is a function of time alone
+    (``wall_travel``). ``scratch``: a (2, n_owned) work array."""
     dt = prm.dt
     h = 0.5 * dt
     n_owned = clock.n_owned[0]
@@ -119,8 +120,17 @@ def drift(ps, clock, prm, opts, scratch):
             vp[2 * i + 1] = v[2 * i + 1]
             ps.w_pred[i] = ps.omega[i]
             max_v2 = max(max_v2, v[2 * i] ** 2 + v[2 * i + 1] ** 2)
-            dx = x[2 * i] - xr[2 * i]
-            dy = x[2 * i + 1] - xr[2 * i + 1]
-            max_d2 = max(max_d2, dx * dx + dy * dy)
         ring_move = abs(outer_radius(t, prm.rings)[0] - clock.r_out_ref[0])
     return bad, math.sqrt(max_d2) + ring_move, max_v2
+
+
+@nb.njit(**INLINE)
+def wall_travel(clock, prm):
+    """Bound (m) on how far any wall disk moved since the last neighbour build: the chord of
+    the inner ring's turn plus the outer ring's radial move. A function of the steps and the
+    rings alone, so every rank computes the same bits."""
+    half_turn = 0.5 * prm.rings.omega_in * (clock.step[0] - clock.step_ref[0]) * prm.dt
+    chord = 2.0 * prm.rings.r_in * (abs(math.sin(half_turn)) if abs(half_turn) < 0.5 * math.pi
+                                    else 1.0)
+    r_o = outer_radius(clock.step[0] * prm.dt, prm.rings)[0]
+    return chord + abs(r_o - clock.r_out_ref[0])

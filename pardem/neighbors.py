@@ -1,8 +1,9 @@
 """Neighbour search: cell binning + Verlet list with a skin, in canonical (lower gid, higher gid)
 order, the ring-contact candidates, and the contact history carried into the new list.
 
-Stage: neighbour rebuild (called only when some body has moved more than skin/2 since the last
-build, so the list always contains every touching pair). O(N): one counting pass into cells,
+Stage: neighbour rebuild (called only when some free body has moved more than skin/2 since the
+last build, or a free body and a wall disk together more than skin + wall_skin, so the list
+always contains every touching pair). O(N): one counting pass into cells,
 then a 3x3-cell scan per particle over cell-ordered copies of the data.
 
 Only touching pairs contribute forces, and each particle's contacts are summed in the order of
@@ -21,13 +22,20 @@ from .jit import JIT, copy_values
 from .sorted_runs import run_order
 from .walls import outer_radius, ring_surface
 
+WALL_SKINS = 2.0
+"""A free disk's pairs with wall disks are listed this many skins farther than free pairs
+(Params.wall_skin), so that the walls' prescribed motion (the inner ring turning) rarely forces
+a build: one comes when a free disk and a wall disk together moved skin + wall_skin, against
+skin/2 for the free disks alone."""
+
 
 @nb.njit(**JIT)
-def build_pairs(x, radius, gid, n_own, n, skin, pi, pj):
+def build_pairs(x, radius, gid, n_own, n_local, n, skin, wall_skin, pi, pj):
     """Fill pi, pj with all pairs closer than a_i + a_j + skin (centre distance) among the first
     n particles that have a partner among the first n_own (the owned free particles; this
     excludes pairs of two wall disks, of two ghosts, and of a ghost with a wall disk), sorted
-    by (gid[pi], gid[pj]) with gid[pi] < gid[pj].
+    by (gid[pi], gid[pj]) with gid[pi] < gid[pj]. Rows n_own:n_local are wall disks: their
+    pairs reach wall_skin farther (m).
     Returns the number of pairs found; if it exceeds pi.size the arrays hold only a prefix and
     the caller must grow them and call again.
 
@@ -38,14 +46,19 @@ def build_pairs(x, radius, gid, n_own, n, skin, pi, pj):
     if n == 0:
         return 0
     xmin, xmax, ymin, ymax = x[0, 0], x[0, 0], x[0, 1], x[0, 1]
-    rmax = 0.0
+    rmax = 0.0  # free particles (owned and ghosts)
+    rwall = 0.0
     for k in range(n):
         xmin = min(xmin, x[k, 0])
         xmax = max(xmax, x[k, 0])
         ymin = min(ymin, x[k, 1])
         ymax = max(ymax, x[k, 1])
-        rmax = max(rmax, radius[k])
-    cell = 2.0 * rmax + skin
+        if n_own <= k < n_local:
+            rwall = max(rwall, radius[k])
+        else:
+            rmax = max(rmax, radius[k])
+    # a 3x3 cell scan must reach every listed partner
+    cell = max(2.0 * rmax + skin, rmax + rwall + skin + wall_skin)
     # A sparse scene would make a huge, mostly empty grid: bound the cell count by ~4 n.
     area = (xmax - xmin + cell) * (ymax - ymin + cell)
     cell = max(cell, math.sqrt(area / (4.0 * n + 16.0)))
@@ -86,6 +99,7 @@ def build_pairs(x, radius, gid, n_own, n, skin, pi, pj):
         yi_ = x[i, 1]
         ri = radius[i] + skin
         own_i = i < n_own
+        wall_i = n_own <= i < n_local
         cx = cid[i] % ncx
         cy = cid[i] // ncx
         m = 0
@@ -94,9 +108,10 @@ def build_pairs(x, radius, gid, n_own, n, skin, pi, pj):
             for s in range(start[row + max(cx - 1, 0)], start[row + min(cx + 2, ncx)]):
                 dx = xi_ - sx[s]
                 dy = yi_ - sy[s]
-                cut = ri + sr[s]
+                kj = sk[s]
+                cut = ri + sr[s] + wall_skin * (wall_i | ((n_own <= kj) & (kj < n_local)))
                 buf[m] = s  # the slot is overwritten unless the candidate is kept
-                m += (sg[s] > gi) & (own_i | (sk[s] < n_own)) & (dx * dx + dy * dy < cut * cut)
+                m += (sg[s] > gi) & (own_i | (kj < n_own)) & (dx * dx + dy * dy < cut * cut)
         # insertion sort of i's partners by gid (a handful of entries)
         for q in range(1, m):
             b = buf[q]
@@ -146,7 +161,9 @@ def build_lists(ps, pairs, clock, prm, t, from_list, history, walls):
         ps.x_ref[k, 1] = ps.x[k, 1]
     r_out = outer_radius(t, prm.rings)[0]
     clock.r_out_ref[0] = r_out
-    count = build_pairs(ps.x, ps.radius, ps.gid, n_owned, n, prm.skin, pairs.i, pairs.j)
+    clock.step_ref[0] = clock.step[0]
+    count = build_pairs(ps.x, ps.radius, ps.gid, n_owned, clock.n_local[0], n, prm.skin,
+                        prm.wall_skin, pairs.i, pairs.j)
     n_wall = 0
     if walls:
         n_wall = ring_candidates(ps.x, ps.radius, n_owned, r_out, prm.skin, prm.rings, pairs.wall)

@@ -36,6 +36,7 @@ from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
 from .memory import check_memory
 from .placement import initial_configuration, whole_cell
+from .neighbors import WALL_SKINS
 from .rebuild import place_idle_walls, rebuild
 from . import stop
 from .scene import Scene, SceneError, write_scene
@@ -95,7 +96,8 @@ class Simulation(StateViews):
         skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
         c = scene.contact
         self.prm = Params(law_params(c, self.dt), rings_of(g), self.dt, skin,
-                          c.mu_bottom * c.gravity, math.inf)
+                          c.mu_bottom * c.gravity, math.inf,
+                          wall_skin=WALL_SKINS * skin if g is not None else 0.0)
         check_memory(scene, comm)
         init = initial_configuration(scene)
         self.n_free = init.n_free
@@ -135,7 +137,7 @@ class Simulation(StateViews):
         self.clock.n_moving[0] = rows.shape[0]  # every wall disk is at time t: none idle yet
         # rebuild.order_walls: no owned particle gets this close to an idle wall disk between
         # exchanges
-        self.wall_margin = self.decomp.ghost_width + 2.0 * float(
+        self.wall_margin = self.decomp.ghost_width + self.prm.wall_skin + 2.0 * float(
             init.radius[init.n_free:].max(initial=0.0))
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.hist)
         compile_ahead(self, history)  # parallel runs: the ranks share a cold compile

@@ -102,7 +102,9 @@ class Params(NamedTuple):
     (walls.Rings: the geometry and motion of the rings), and the run's own: dt (s), skin (m,
     Verlet skin), mu_b_g = mu_bottom g (m/s^2, bottom friction), escape_radius (m: a particle
     farther than this from the axis is an error; free scenes: inf; Couette scenes check
-    against the rings' current radii instead)."""
+    against the rings' current radii instead), wall_skin (m: the extra skin of a free disk's
+    pairs with wall disks, whose prescribed motion then does not force a build every skin/2;
+    0 without walls)."""
 
     law: LawParams
     rings: Rings
@@ -110,6 +112,7 @@ class Params(NamedTuple):
     skin: float
     mu_b_g: float
     escape_radius: float
+    wall_skin: float = 0.0
 
 
 class Clock(NamedTuple):
@@ -120,7 +123,8 @@ class Clock(NamedTuple):
     wall disks near this rank's sector, stored first: the bodies the step loop moves (the
     other wall disks are placed at exchanges and before output; one rank: all).
     n_ghost[0]: ghost copies of other ranks' particles, stored after them (0 on one rank).
-    r_out_ref[0] (float array, m): outer-ring radius at the last neighbour build.
+    r_out_ref[0] (float array, m): outer-ring radius at the last neighbour build;
+    step_ref[0]: the step of the last neighbour build.
     reach[0] (m): bound on how much any overlap can change in half a step, 2 max|v| dt/2
     (pairs that close to touching get their share of the damping force).
     disp[0] (m): the largest displacement of any body since the previous neighbour build, over
@@ -137,6 +141,7 @@ class Clock(NamedTuple):
     r_out_ref: np.ndarray
     reach: np.ndarray
     disp: np.ndarray
+    step_ref: np.ndarray
 
 
 def new_particles(n: int, hist: int) -> Particles:
@@ -168,6 +173,7 @@ def new_clock(n_owned: int, n_local: int, r_out0: float) -> Clock:
         n_moving=np.array([n_local], np.int64),
         n_ghost=np.zeros(1, np.int64),
         r_out_ref=np.array([r_out0]), reach=np.zeros(1), disp=np.zeros(1),
+        step_ref=np.zeros(1, np.int64),
     )
 
 

@@ -11,9 +11,10 @@ many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
                 every rank learns the global largest displacement and speed
                                                                     (parallel.refresh_ghosts)
     (stop here and return NEED_REBUILD if a pair not in the list could now be within reach
-     of touching: largest displacement since the last neighbour build + half the distance
-     the fastest body covers in a step > skin/2; the caller rebuilds the list and calls
-     ``advance`` again, which resumes)
+     of touching: largest free displacement since the last neighbour build + half the
+     distance the fastest body covers in a step > skin/2, or, for a free disk and a wall disk,
+     that displacement + the walls' travel + that distance > skin + wall_skin; the caller
+     rebuilds the list and calls ``advance`` again, which resumes)
     forces      pair contacts in canonical pair order, then flat ring contacts (forces.py)
     half kick   (then bottom friction)
 
@@ -38,7 +39,7 @@ import numpy as np
 
 from .contact.model import ContactOptions, work_size
 from .forces import contact_forces
-from .integrate import drift, kick
+from .integrate import drift, kick, wall_travel
 from .jit import JIT
 from .static import static
 from .parallel.refresh import refresh_ghosts
@@ -100,9 +101,12 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 if bad_any:
                     return BAD_PARTICLE, bad
                 clock.reach[0] = math.sqrt(v2) * prm.dt  # 2 max|v| dt/2
-                # the list must hold every pair within reach of touching:
-                # 2 max_disp + reach <= skin
-                if disp + 0.5 * clock.reach[0] > 0.5 * prm.skin:
+                # the list must hold every pair within reach of touching: free pairs
+                # 2 max_disp + reach <= skin; a free disk and a wall disk (listed wall_skin
+                # farther) max_disp + wall travel + reach <= skin + wall_skin
+                if disp + 0.5 * clock.reach[0] > 0.5 * prm.skin or (
+                        opts.walls and disp + wall_travel(clock, prm) + clock.reach[0]
+                        > prm.skin + prm.wall_skin):
                     clock.disp[0] = disp
                     return NEED_REBUILD, -1
             # the applied forces are stored for the state this call ends in (output reads them)

@@ -22,17 +22,21 @@ def _record(signum, frame) -> None:
 
 
 @contextlib.contextmanager
-def catching_signals():
-    """Within the block, SIGINT and SIGTERM are recorded instead of acting (main thread only);
-    the previous handlers return after it (``pardem.cli.main`` may run inside a test)."""
+def catching_signals(restore: bool = True):
+    """Within the block, SIGINT and SIGTERM are recorded instead of acting (main thread only).
+    ``restore``: the previous handlers return after it (``pardem.cli.main`` may run inside a
+    test). ``pardem run`` keeps recording to the end of the process instead: a signal after the
+    last step (mpiexec sends one to the ranks still running when the first exits non-zero, or a
+    late Ctrl-C) must not kill a rank while it finishes."""
     _received[0] = 0
     previous = {sig: signal.signal(sig, _record) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
         _received[0] = 0  # a later run in this process starts afresh
-        for sig, handler in previous.items():
-            signal.signal(sig, handler)
+        if restore:
+            for sig, handler in previous.items():
+                signal.signal(sig, handler)
 
 
 def requested() -> int:

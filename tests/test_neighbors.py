@@ -26,16 +26,44 @@ def test_cell_list_equals_brute_force():
         pi = np.zeros(16, np.int32)
         pj = np.zeros(16, np.int32)
         n_own = int((kind == 0).sum())
-        count = build_pairs(x, r, gid, n_own, x.shape[0], skin, pi, pj)
+        count = build_pairs(x, r, gid, n_own, n_own, x.shape[0], skin, 0.0, pi, pj)
         assert count > 16  # capacity overflow reported, then grown
         pi = np.zeros(count, np.int32)
         pj = np.zeros(count, np.int32)
-        assert build_pairs(x, r, gid, n_own, x.shape[0], skin, pi, pj) == count
+        assert build_pairs(x, r, gid, n_own, n_own, x.shape[0], skin, 0.0, pi, pj) == count
         keys = list(zip(gid[pi].tolist(), gid[pj].tolist()))
         assert set(keys) == brute_force_pairs(x, r, gid, kind, skin)
         assert len(keys) == len(set(keys))
         assert keys == sorted(keys)  # canonical order: (lower gid, higher gid), sorted
         assert all(a < b for a, b in keys)
+
+
+def test_wall_pairs_reach_wall_skin_farther():
+    """Rows n_own:n_local are wall disks: a free particle and a wall disk are listed within
+    a + a' + skin + wall_skin, free pairs (owned or ghost partners) within a + a' + skin; no
+    wall-wall, ghost-ghost or ghost-wall pairs. Brute force over all pairs."""
+    for seed in range(5):
+        x, r, gid, kind = random_dense(800, seed)
+        n_own = int((kind == 0).sum())
+        n_local = n_own + (x.shape[0] - n_own) // 2  # the rest: ghosts
+        skin, wall_skin = 0.7e-3, 1.4e-3
+        pi = np.zeros(40000, np.int32)
+        pj = np.zeros(40000, np.int32)
+        count = build_pairs(x, r, gid, n_own, n_local, x.shape[0], skin, wall_skin, pi, pj)
+        got = set(zip(gid[pi[:count]].tolist(), gid[pj[:count]].tolist()))
+        role = np.where(np.arange(x.shape[0]) < n_own, 0,
+                        np.where(np.arange(x.shape[0]) < n_local, 1, 2))  # own, wall, ghost
+        want = set()
+        for i in range(x.shape[0]):
+            for j in range(x.shape[0]):
+                if gid[i] >= gid[j] or (role[i] != 0 and role[j] != 0):
+                    continue
+                extra = wall_skin if 1 in (role[i], role[j]) else 0.0
+                if np.hypot(*(x[i] - x[j])) < r[i] + r[j] + skin + extra:
+                    want.add((int(gid[i]), int(gid[j])))
+        assert got == want
+        assert any(1 in (role[i], role[j]) for i, j in zip(pi[:count], pj[:count])
+                   if np.hypot(*(x[i] - x[j])) > r[i] + r[j] + skin)  # the extra reach is used
 
 
 def test_carry_history_matches_by_gid_keys():
