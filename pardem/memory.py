@@ -9,6 +9,9 @@ the node has available for its ranks is refused with the numbers, instead of a M
 
 from __future__ import annotations
 
+import resource
+from pathlib import Path
+
 from .parallel import smallest_node_share
 from .scene import Scene, SceneError
 from .walls import wall_layout
@@ -38,16 +41,23 @@ def needed_bytes(scene: Scene) -> float:
 
 
 def available_bytes() -> float | None:
-    """Memory the kernel reports available for new allocations (MemAvailable); None where
-    /proc/meminfo does not exist."""
+    """Memory available for new allocations: MemAvailable, or less inside a cgroup with a
+    limit (a container, a batch job: memory.max - memory.current); None where neither file
+    exists."""
+    found = []
     try:
         with open("/proc/meminfo") as f:
-            for line in f:
-                if line.startswith("MemAvailable:"):
-                    return 1024.0 * float(line.split()[1])
+            found += [1024.0 * float(line.split()[1]) for line in f
+                      if line.startswith("MemAvailable:")]
     except OSError:
-        return None
-    return None
+        pass
+    try:
+        limit = Path("/sys/fs/cgroup/memory.max").read_text().strip()
+        if limit != "max":
+            found.append(float(limit) - float(Path("/sys/fs/cgroup/memory.current").read_text()))
+    except (OSError, ValueError):
+        pass
+    return min(found) if found else None
 
 
 def check_memory(scene: Scene, comm=None) -> None:
@@ -55,8 +65,10 @@ def check_memory(scene: Scene, comm=None) -> None:
     rank (collective: every rank decides alike, from the smallest share of any node)."""
     available = available_bytes()
     share = smallest_node_share(comm, float("inf") if available is None else available)
+    # this process's interpreter and libraries are already resident: not new memory
+    resident = 1024.0 * resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     need = needed_bytes(scene)
-    if need > share:
+    if need - min(resident, BASE_BYTES) > share:
         ranks = 1 if comm is None else comm.Get_size()
         raise SceneError(
             f"{particle_count(scene)} particles (wall disks included) need about "

@@ -44,7 +44,7 @@ from .state import Params, new_clock, new_pairs, new_particles, packed, unpack_p
 from .step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
 from .views import StateViews
-from .walls import rings_of
+from .walls import rings_of, wall_layout
 
 
 class SimulationError(RuntimeError):
@@ -95,9 +95,11 @@ class Simulation(StateViews):
         self.n_rebuilds = 0
         skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
         c = scene.contact
+        disks = [wall_layout(g, ring).count > 0 for ring in ("inner", "outer")] if g else []
         self.prm = Params(law_params(c, self.dt), rings_of(g), self.dt, skin,
                           c.mu_bottom * c.gravity, math.inf,
-                          wall_skin=WALL_SKINS * skin if g is not None else 0.0)
+                          wall_skin=WALL_SKINS * skin if any(disks) else 0.0,
+                          inner_disks=float(bool(disks) and disks[0]))
         check_memory(scene, comm)
         init = initial_configuration(scene)
         self.n_free = init.n_free

@@ -104,7 +104,7 @@ class Params(NamedTuple):
     farther than this from the axis is an error; free scenes: inf; Couette scenes check
     against the rings' current radii instead), wall_skin (m: the extra skin of a free disk's
     pairs with wall disks, whose prescribed motion then does not force a build every skin/2;
-    0 without walls)."""
+    0 without wall disks), inner_disks (1.0 if the inner ring carries wall disks, else 0.0)."""
 
     law: LawParams
     rings: Rings
@@ -113,6 +113,7 @@ class Params(NamedTuple):
     mu_b_g: float
     escape_radius: float
     wall_skin: float = 0.0
+    inner_disks: float = 0.0
 
 
 class Clock(NamedTuple):
@@ -127,9 +128,9 @@ class Clock(NamedTuple):
     step_ref[0]: the step of the last neighbour build.
     reach[0] (m): bound on how much any overlap can change in half a step, 2 max|v| dt/2
     (pairs that close to touching get their share of the damping force).
-    disp[0] (m): the largest displacement of any body since the previous neighbour build, over
-    all ranks, at the step that asked for the latest build (under MPI it decides whether a
-    build must also exchange).
+    disp[0] (m): the largest displacement of a free particle since the previous neighbour
+    build plus the outer ring's move, over all ranks, at the step that asked for the latest
+    build (diagnostics; exchanges are decided from positions, Decomposition.exchange_due).
     """
 
     step: np.ndarray

@@ -104,10 +104,11 @@ def elastic_gas_energy_error(dt_per_contact: float, steps: int, seed: int,
 
 
 def brute_force_pairs(x: np.ndarray, radius: np.ndarray, gid: np.ndarray, kind: np.ndarray,
-                      skin: float) -> set[tuple[int, int]]:
+                      skin: float, wall_skin: float = 0.0) -> set[tuple[int, int]]:
     """Reference O(N^2) search: the set of (gid_lo, gid_hi) within a + a' + skin with at least
-    one free particle."""
+    one free particle (kind 0); pairs with a wall disk (kind != 0) within wall_skin more."""
     d = np.linalg.norm(x[:, None, :] - x[None, :, :], axis=-1)
-    cut = radius[:, None] + radius[None, :] + skin
+    walls = (kind[:, None] != 0) | (kind[None, :] != 0)
+    cut = radius[:, None] + radius[None, :] + skin + wall_skin * walls
     ii, jj = np.nonzero((d < cut) & (gid[:, None] < gid[None, :]))
     return {(int(gid[i]), int(gid[j])) for i, j in zip(ii, jj) if kind[i] == 0 or kind[j] == 0}

@@ -14,8 +14,8 @@ run of the loop continues from there with a snapshot every step and a checkpoint
 ``--checkpoint-every`` steps, to ``--steps`` steps past the prep:
 1. the reference runs once, uninterrupted; its wall time T sets the kill window;
 2. a run starts (``pardem run --restart`` from the folder's own checkpoint, or from the prep's
-   while the folder has none) and its whole process group (mpiexec and every rank) gets
-   SIGKILL at a uniformly random moment in [0, T]; a signal (INT, TERM) is sent at a random
+   while the folder has none) and mpiexec and every rank get SIGKILL at a uniformly random
+   moment in [0, T]; a signal (INT, TERM) is sent at a random
    moment after the run has written its first snapshot (before, the run has not installed its
    handlers: Python's defaults apply), to the launcher or to one rank, chosen at random;
 3. the folder is checked: every snapshot file opens and equals the reference's file of the same
@@ -79,7 +79,7 @@ def command(ranks: int, scene: Path, out: Path, *options: str) -> list[str]:
 def start(cmd: list[str]) -> subprocess.Popen:
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     return subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            env=env, start_new_session=True)  # its own group: killpg reaches all
+                            env=env, start_new_session=True)  # mpiexec's group; see kill_all
 
 
 def snapshot_files(run: Path) -> dict[int, Path]:
@@ -223,7 +223,7 @@ def kill_loop(kills: int, ranks: int, work: Path, seed: int = 0, steps: int = 20
         if code not in (0, None) and sig == "KILL":
             found.append(f"the run exited {code}: {err.strip()[-300:]}")
         if found:
-            counts["corrupted"] += not any(f.startswith(("hung", "stop:")) for f in found)
+            counts["corrupted"] += any(not f.startswith(("hung", "stop:")) for f in found)
             say(f"kill {counts['kills']}: " + "; ".join(found[:5]))
             shutil.rmtree(run, ignore_errors=True)  # start over: one problem counted once
         if counts["kills"] % 50 == 0 and code != 0:
@@ -237,8 +237,7 @@ def strike(proc, rng, sig: str, window: float, run: Path, launched: float, count
         try:
             return proc.wait(timeout=rng.uniform(0.0, window)), []
         except subprocess.TimeoutExpired:
-            os.killpg(proc.pid, signal.SIGKILL)
-            proc.wait()
+            kill_all(proc, run)
             return None, []
     while proc.poll() is None and not any(p.stat().st_mtime >= launched
                                           for p in snapshot_files(run).values()):
@@ -263,9 +262,25 @@ def strike(proc, rng, sig: str, window: float, run: Path, launched: float, count
         return proc.wait(timeout=30.0), []
     except subprocess.TimeoutExpired:
         counts["hung"] += 1
-        os.killpg(proc.pid, signal.SIGKILL)
-        proc.wait()
+        kill_all(proc, run)
         return None, [f"hung: no exit within 30 s of SIG{sig} to pid {target}"]
+
+
+def kill_all(proc, run: Path) -> None:
+    """SIGKILL to the launcher's process group and to every rank (MPICH's mpiexec starts its
+    proxy and ranks in sessions of their own, out of reach of killpg), then wait until no rank
+    is left, so that the check never races a dying rank."""
+    ranks = rank_pids(run)
+    os.killpg(proc.pid, signal.SIGKILL)
+    for pid in ranks:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    proc.wait()
+    deadline = time.time() + 30.0
+    while rank_pids(run) and time.time() < deadline:
+        time.sleep(0.01)
 
 
 def rank_pids(run: Path) -> list[int]:

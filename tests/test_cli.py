@@ -143,7 +143,8 @@ def test_a_scene_too_large_for_the_memory_is_refused_before_allocating(tmp_path,
     assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert f"pardem: error: {path}: 1000016000 particles (wall disks included) need about" in err
-    assert "932 GiB per rank" in err  # (1,000,016,000 x 1000 B + 200 MB) / 2^30 = 931.5 and "only 64 GiB per rank is available" in err
+    assert "932 GiB per rank" in err  # (1,000,016,000 x 1000 B + 200 MB) / 2^30 = 931.5
+    assert "only 64 GiB per rank is available" in err
     assert main(["check", str(path)]) == 0
     assert "# memory: about 932 GiB per rank at set-up" in capsys.readouterr().out
 

@@ -101,8 +101,8 @@ def claim_folder(out_dir: Path, scene, restart, overwrite: bool, lock: FolderLoc
         keep = Path(restart) / "checkpoint.h5" if Path(restart).is_dir() else Path(restart)
         keep = keep.resolve()
     removed = []
-    for name in found:
-        path = out_dir / name
+    for name in sorted(found, key=lambda n: not n.endswith(".xdmf")):  # indexes first: a
+        path = out_dir / name  # kill in between never leaves one naming deleted snapshots
         if path.resolve() != keep:  # the checkpoint being continued from stays
             shutil.rmtree(path) if path.is_dir() else path.unlink()
             removed.append(name)

@@ -27,10 +27,11 @@ with a third component z = 0, as ParaView wants; ``read_snapshots`` drops it):
 Crash safety (a kill -9 at any moment damages at most the snapshot being written): a file is
 written as ``NNNNNN.h5.tmp`` and renamed when closed, so a completed file is never opened for
 writing again; the XDMF indexes are rewritten under a temporary name and renamed after the
-file is in place, so they list completed files only. A run continued from a checkpoint first
-drops the abandoned tail (snapshots at or after its first index) from the indexes, then
-deletes those files, highest first: a kill in between leaves the old run's series, one index
-shorter. Tested by ``run_scripts/kill_loop.py`` (hundreds of kill -9 at random moments).
+file is in place, so they list completed files only. A run continued from a checkpoint, at its
+first snapshot, drops the abandoned tail (snapshots at or after that index) from the indexes,
+then deletes those files, highest first: a kill in between leaves the indexes listing the
+series before that index and some unlisted files after it, which the next run deletes. No
+fsync: a kill of the process is covered, a crash of the machine is not. Tested by ``run_scripts/kill_loop.py`` (hundreds of kill -9 at random moments).
 """
 
 from __future__ import annotations

@@ -82,7 +82,7 @@ def rebuild(out_dir: Path) -> None:
     """Both indexes from every snapshot file in ``out_dir`` (reads each file; for folders
     whose index was lost)."""
     particles, contacts = [], []
-    for path in sorted((out_dir / FOLDER).glob("[0-9]*.h5")):
+    for path in sorted((out_dir / FOLDER).glob("[0-9]*.h5"), key=lambda p: int(p.name[:-3])):
         with h5py.File(path, "r") as h5:
             time, index = float(h5.attrs["time"]), int(path.name[:-3])
             parts = _shapes(h5)

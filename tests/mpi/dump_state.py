@@ -43,7 +43,7 @@ def check_lists(sim, comm) -> None:
         gid, first = np.unique(gid, return_index=True)  # wall disks near two sectors: same bits
         x, radius, kind = (np.concatenate([p[q] for p in parts])[first] for q in (1, 2, 3))
         listed = set().union(*(p[4] for p in parts))
-        expected = brute_force_pairs(x, radius, gid, kind, sim.prm.skin)
+        expected = brute_force_pairs(x, radius, gid, kind, sim.prm.skin, sim.prm.wall_skin)
         assert listed == expected, (f"step {int(c.step[0])}: {len(expected - listed)} pairs "
                                     f"missing, {len(listed - expected)} extra")
     CHECKED[0] += 1
