@@ -32,8 +32,7 @@ def describe(scene: Scene) -> str:
     """The report ``pardem check`` prints (SceneError if the scene cannot run)."""
     dt = resolve_dt(scene)  # also refuses ring speeds the contact law cannot follow
     t_c = smallest_contact_time(scene)
-    n = (sum(s.count for s in scene.species) if scene.particles is None
-         else len(scene.particles))
+    n = scene.n_free
     steps = int(round(scene.time.end / dt))
     work = n * steps
     limit, mode = stability_limit(scene)

@@ -27,8 +27,7 @@ BASE_BYTES = 200e6
 
 def particle_count(scene: Scene) -> int:
     """Free particles plus wall disks."""
-    n = (sum(s.count for s in scene.species) if scene.particles is None
-         else len(scene.particles))
+    n = scene.n_free
     g = scene.geometry
     if g is not None:
         n += wall_layout(g, "inner").count + wall_layout(g, "outer").count

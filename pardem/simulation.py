@@ -95,11 +95,12 @@ class Simulation(StateViews):
         self.n_rebuilds = 0
         skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
         c = scene.contact
-        disks = [wall_layout(g, ring).count > 0 for ring in ("inner", "outer")] if g else []
+        inner, outer = (g is not None and wall_layout(g, ring).count > 0
+                        for ring in ("inner", "outer"))
         self.prm = Params(law_params(c, self.dt), rings_of(g), self.dt, skin,
                           c.mu_bottom * c.gravity, math.inf,
-                          wall_skin=WALL_SKINS * skin if any(disks) else 0.0,
-                          inner_disks=float(bool(disks) and disks[0]))
+                          wall_skin=WALL_SKINS * skin if inner or outer else 0.0,
+                          inner_disks=float(inner))
         check_memory(scene, comm)
         init = initial_configuration(scene)
         self.n_free = init.n_free

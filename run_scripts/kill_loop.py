@@ -49,6 +49,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from pardem.output import xdmf
+
 ROOT = Path(__file__).resolve().parents[1]
 SCENE = ROOT / "examples" / "small_dense.toml"
 PREP_END = 1.0  # s: past the compression, the disks touch
@@ -83,10 +85,7 @@ def start(cmd: list[str]) -> subprocess.Popen:
 
 
 def snapshot_files(run: Path) -> dict[int, Path]:
-    folder = run / "snapshots"
-    if not folder.is_dir():
-        return {}
-    return {int(p.name[:-3]): p for p in folder.glob("[0-9]*.h5")}
+    return {i: run / xdmf.FOLDER / xdmf.file_name(i) for i in xdmf.snapshot_indexes(run)}
 
 
 def contents(path: Path) -> tuple[dict, dict]:

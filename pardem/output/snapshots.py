@@ -44,6 +44,7 @@ import h5py
 import numpy as np
 
 from . import xdmf
+from .xdmf import snapshot_indexes
 
 FOLDER = xdmf.FOLDER
 FORMAT = "pardem-snapshot"
@@ -92,15 +93,6 @@ def write_snapshot(out_dir: str | os.PathLike, index: int, time: float, step: in
         xdmf.append(out_dir, xdmf.CONTACTS, index,
                     xdmf.contact_grid(index, time, parts, links)
                     if contacts["ids"].shape[0] else None)
-
-
-def snapshot_indexes(out_dir: str | os.PathLike) -> list[int]:
-    """The indexes of the completed snapshot files in a run folder, ascending."""
-    folder = Path(out_dir) / FOLDER
-    if not folder.is_dir():
-        return []
-    return sorted(int(p.name[:-3]) for p in folder.iterdir()
-                  if p.name.endswith(".h5") and p.name[:-3].isdigit())
 
 
 def _write_table(group: h5py.Group, table: dict[str, np.ndarray]) -> xdmf.Arrays:

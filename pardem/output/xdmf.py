@@ -41,6 +41,15 @@ def file_name(index: int) -> str:
     return f"{index:06d}.h5"
 
 
+def snapshot_indexes(out_dir: Path) -> list[int]:
+    """The indexes of the completed snapshot files in a run folder, ascending."""
+    folder = Path(out_dir) / FOLDER
+    if not folder.is_dir():
+        return []
+    return sorted(int(p.name[:-3]) for p in folder.iterdir()
+                  if p.name.endswith(".h5") and p.name[:-3].isdigit())
+
+
 def particle_grid(index: int, time: float, arrays: Arrays) -> str:
     """The grid of snapshot ``index`` whose particle datasets (shape, dtype) are ``arrays``."""
     h5_name = f"{FOLDER}/{file_name(index)}"
@@ -82,9 +91,9 @@ def rebuild(out_dir: Path) -> None:
     """Both indexes from every snapshot file in ``out_dir`` (reads each file; for folders
     whose index was lost)."""
     particles, contacts = [], []
-    for path in sorted((out_dir / FOLDER).glob("[0-9]*.h5"), key=lambda p: int(p.name[:-3])):
-        with h5py.File(path, "r") as h5:
-            time, index = float(h5.attrs["time"]), int(path.name[:-3])
+    for index in snapshot_indexes(out_dir):
+        with h5py.File(out_dir / FOLDER / file_name(index), "r") as h5:
+            time = float(h5.attrs["time"])
             parts = _shapes(h5)
             particles.append(particle_grid(index, time, parts))
             if "contacts" in h5 and h5["contacts"]["cells"].shape[0]:  # no empty grids
