@@ -25,18 +25,20 @@ def _record(signum, frame) -> None:
 def catching_signals(restore: bool = True):
     """Within the block, SIGINT and SIGTERM are recorded instead of acting (main thread only).
     ``restore``: the previous handlers return after it (``pardem.cli.main`` may run inside a
-    test). ``pardem run`` keeps recording to the end of the process instead: a signal after the
-    last step (mpiexec sends one to the ranks still running when the first exits non-zero, or a
-    late Ctrl-C) must not kill a rank while it finishes."""
+    test). ``pardem run`` ignores the two signals after it instead: a signal after the last
+    step (mpiexec sends one to the ranks still running when the first exits non-zero, or a late
+    Ctrl-C) must not kill a rank while it finishes. Recording would not last: when the
+    interpreter finalises, Python resets the handlers it installed to the default (death by the
+    signal) before mpi4py's MPI_Finalize waits for the other ranks; an ignored signal stays
+    ignored."""
     _received[0] = 0
     previous = {sig: signal.signal(sig, _record) for sig in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
         _received[0] = 0  # a later run in this process starts afresh
-        if restore:
-            for sig, handler in previous.items():
-                signal.signal(sig, handler)
+        for sig, handler in previous.items():
+            signal.signal(sig, handler if restore else signal.SIG_IGN)
 
 
 def requested() -> int:

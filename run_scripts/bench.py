@@ -3,7 +3,7 @@ and 2 ranks, and start-up cost; optionally against an older commit, side by side
 
     python run_scripts/bench.py [--scene run_scripts/couette_B.toml] [--at 2.5] [--steps 20000]
                                 [--repeats 5] [--ranks 1 2] [--startup] [--eta off|on|both]
-                                [--against REV]
+                                [--against REV] [--checkpoint FILE]
 
 Runs the scene once to ``--at`` seconds (default 2.5 s: B's compression ends at 2 s; not timed)
 and checkpoints it. Then times
@@ -16,7 +16,9 @@ ratios). ``--startup`` also measures `pardem run` from process start to the firs
 an empty numba cache (cold) and again with the cache filled (warm). ``--eta``: whether the step
 loop also tracks the paper's total tangential displacement eta (what a run that averages with
 it or writes contacts pays); "both" alternates the two within every round and prints the cost
-of eta as the ratio of the medians. Default "off", the dynamics alone. ``--against REV``: the
+of eta as the ratio of the medians. Default "off", the dynamics alone. ``--checkpoint FILE``:
+keep the compressed state there and reuse it if it exists (a 300k-disk compression takes
+minutes; the file must come from this scene and ``--at``). ``--against REV``: the
 same runs with the code of git revision REV (checked out into a temporary worktree, its own
 bench.py's worker on its own compressed checkpoint of this tree's couette_B.toml) alternating
 with this code's, round by round; prints the ratio of the medians and the per-round ratios.
@@ -27,6 +29,7 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -78,32 +81,38 @@ def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD
+    t0 = time.perf_counter()
     run = Simulation(scene_of(scene, eta), restart=ckpt, comm=comm if comm.size > 1 else None)
+    setup = time.perf_counter() - t0
     assert run.contact.eta == eta
     # compiled code loaded and caches warm, the builds' code included
     builds = run.n_rebuilds
     while run.n_rebuilds < builds + 2:
         run.advance_steps(50)
     run.reset_timers()
+    exchanges = run.decomp.n_exchanges
     comm.Barrier()
     t0 = time.perf_counter()
     run.advance_steps(steps)
     comm.Barrier()
     wall = time.perf_counter() - t0
     mine = run.stats()
+    mine["rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # bytes (Linux)
+    mine["setup"] = setup
     mine.update({"step_us": 1e6 * run.timers["forces+integration"] / steps,
                  "rebuild_us": 1e6 * run.timers["neighbour rebuild"] / steps,
                  "wait_us": 1e6 * mine.pop("wait") / steps})
     ranks = comm.gather(mine, root=0)
     if comm.rank == 0:
         print(json.dumps({"wall": wall, "n_free": run.n_free, "rebuilds": run.n_rebuilds,
+                          "exchanges": run.decomp.n_exchanges - exchanges,
                           "ghosts": [r["ghosts"] for r in ranks], "ranks": ranks,
                           "breakdown": run.breakdown()}))
 
 
 def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
                against: str | None = None, scene: Path = SCENE,
-               at: float = 2.5) -> dict[int, float]:
+               at: float = 2.5, checkpoint: Path | None = None) -> dict[int, float]:
     """Median flow-particle-steps/s for each rank count (also printed, with every run).
 
     The rank counts take turns (round k runs every count once), so that the machine's slow
@@ -130,6 +139,11 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
             ckpts = {}
             for code, tree in trees.items():
                 ckpts[code] = Path(tmp) / f"compressed-{code}.h5"
+                if code == "new" and checkpoint is not None:
+                    ckpts[code] = checkpoint
+                    if checkpoint.exists():
+                        print(f"compressed state from {checkpoint}")
+                        continue
                 print(f"{code} code ({tree}):", end=" ", flush=True)
                 subprocess.run([sys.executable, "-c", "import sys; from pathlib import Path; "
                                 f"sys.path[:0] = [{str(tree)!r}, {str(tree / 'run_scripts')!r}]; "
@@ -240,6 +254,8 @@ def main() -> None:
     ap.add_argument("--eta", choices=["off", "on", "both"], default="off")
     ap.add_argument("--against", metavar="REV", help="also run git revision REV's code, "
                     "alternating with this one (e.g. a commit before a change)")
+    ap.add_argument("--checkpoint", type=Path, metavar="FILE",
+                    help="keep the compressed state in FILE and reuse it when it exists")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
@@ -248,7 +264,8 @@ def main() -> None:
     if args.startup:
         startup()
     throughput(args.steps, args.repeats, args.ranks, args.eta, args.against,
-               args.scene.resolve(), args.at)
+               args.scene.resolve(), args.at,
+               args.checkpoint.resolve() if args.checkpoint else None)
 
 
 if __name__ == "__main__":

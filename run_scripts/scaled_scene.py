@@ -4,10 +4,17 @@ counts x k^2, wall disks x k (the same spacing along the rings, so the same roug
     python run_scripts/scaled_scene.py K OUT.toml [--end 30]
 
 Writes couette_B.toml with those changes, its comments kept, a shorter run (``--end``, default
-30 s; how long a scaled cell takes to reach steady shear is not measured yet), snapshots and
-checkpoints every 10 s and averages over the last 10 s. Everything else is B's: material, time step, Omega (so the inner
-wall moves k times faster), the 2 s compression from R_o' = 0.33 k m. The free disks' volume
+30 s), snapshots and checkpoints every 10 s and averages over the last 10 s. Material, time
+step and Omega are B's (so the inner wall moves k times faster). The free disks' volume
 fraction is B's; the wall disks' half-areas, 0.0047 of B's global 0.81, shrink to 0.0047 / k.
+
+The start is not B's dilute one (R_o' = 0.33 m, area fraction 0.44) scaled: the outer ring
+starts at the smallest radius at which the placement's lattice (spaced by the largest diameter)
+still holds every disk, 1.001 times that for rounding, and moves in with B's compression
+profile at B's peak speed times k (the same compression strain rate), so the compression
+travel and time are ~1/3 of a scaled B's (area fraction ~0.66 at the start). A denser start
+than the lattice gives needs overlapping disks to be relaxed, which the compression does.
+
 The shipped couette_B_30k, _300k and _1M are K = 3.2, 10 and 18.5 (30,096, 293,900 and
 1,005,872 free disks).
 """
@@ -15,7 +22,9 @@ The shipped couette_B_30k, _300k and _1M are K = 3.2, 10 and 18.5 (30,096, 293,9
 from __future__ import annotations
 
 import argparse
+import math
 import re
+import tomllib
 from pathlib import Path
 
 B = Path(__file__).resolve().parent / "couette_B.toml"
@@ -41,6 +50,20 @@ def scaled(k: float, end: float = 30.0) -> str:
     for key in ("inner_wall_count", "outer_wall_count"):
         scale(key, k, integer=True)
     scale("count", k * k, integer=True)
+    d = tomllib.loads(text)
+    g = d["geometry"]
+    diameters = [s["diameter"] for s in d["species"]]
+    wall = g["wall_particle_diameter"]
+    r_tight = tightest_start(g["inner_radius"] + wall / 2, sum(s["count"] for s in d["species"]),
+                             max(diameters), wall)
+    b = tomllib.loads(B.read_text())["geometry"]
+    peak_speed = k * (b["outer_start_radius"] - b["outer_radius"]) / b["compression_time"]
+    t_comp = (r_tight - g["outer_radius"]) / peak_speed
+    for key, value, note in (
+            ("outer_start_radius", r_tight, "m, the tightest lattice start (see scaled_scene.py)"),
+            ("compression_time", round(t_comp, 3), "s, at B's compression strain rate")):
+        line = f"{key} = {value:g}"
+        text = re.sub(rf"^{key}\s*=.*$", f"{line:<33}# {note}", text, count=1, flags=re.M)
     text = re.sub(r'^name = "couette-B"', f'name = "couette-B-x{k:g}"', text, flags=re.M)
     for key, value in (("end", end), ("snapshot_interval", 10.0), ("checkpoint_interval", 10.0),
                        ("start", max(end - 10.0, 2.5))):
@@ -48,6 +71,40 @@ def scaled(k: float, end: float = 30.0) -> str:
     header = (f"# pardem scene: the paper's B scaled by k = {k:g} (run_scripts/scaled_scene.py):\n"
               f"# radii x {k:g}, disk counts x {k * k:g}, wall disks x {k:g}; B's material.\n")
     return header + text
+
+
+def tightest_start(r_inner_clear: float, n: int, d_max: float, wall: float) -> float:
+    """The smallest outer ring radius (m; x 1.001, rounded up to 0.1 mm) at which the
+    triangular lattice of pardem.placement (spacing 1.001 d_max, centres 1.01 d_max/2 clear of
+    the rings' wall disks) has n sites: sites counted row by row, bisected on the radius."""
+    s = 2.0 * (d_max / 2) * 1.001
+    h = s * math.sqrt(3) / 2
+    r_lo = r_inner_clear + d_max / 2 * 1.01
+
+    def sites(r_hi: float) -> int:
+        count = 0
+        for j in range(-int(r_hi / h) - 1, int(r_hi / h) + 2):
+            y2 = (j * h) ** 2
+            if y2 > r_hi**2:
+                continue
+            shift = 0.5 * (j % 2)
+            a_hi = math.sqrt(r_hi**2 - y2)
+            a_lo = math.sqrt(r_lo**2 - y2) if y2 < r_lo**2 else -1.0
+            # integers i with a_lo <= |(i + shift) s| <= a_hi
+            right = math.floor(a_hi / s - shift) - math.ceil(max(a_lo, 0.0) / s - shift) + 1
+            left = math.floor(a_hi / s + shift) - math.ceil(max(a_lo, 0.0) / s + shift) + 1
+            both = right + left - (1 if a_lo < 0 and shift == 0 else 0)
+            count += max(both, 0)
+        return count
+
+    def clear(r_out: float) -> float:  # the lattice's outer bound for an outer ring at r_out
+        return r_out - wall / 2 - d_max / 2 * 1.01
+
+    lo, hi = r_lo, r_lo + 2.0 * math.sqrt(n) * s
+    while hi - lo > 1e-7 * hi:
+        mid = 0.5 * (lo + hi)
+        lo, hi = (lo, mid) if sites(clear(mid)) >= n else (mid, hi)
+    return math.ceil(hi * 1.001 * 1e4) / 1e4
 
 
 def main() -> None:

@@ -261,6 +261,25 @@ def test_a_signal_is_recorded_only_inside_the_run_and_forgotten_after():
     assert signal.getsignal(signal.SIGINT) is before
 
 
+def test_pardem_run_ignores_signals_after_its_run():
+    """``pardem run`` (restore=False) leaves SIGINT and SIGTERM ignored after the run: Python
+    would reset its own handlers to the default (death) at finalisation, before MPI_Finalize
+    waits for the other ranks, while an ignored signal stays ignored (the end-to-end check is
+    run_scripts/kill_loop.py --signal INT on 2 ranks)."""
+    import signal
+
+    from pardem import stop
+
+    before = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with stop.catching_signals(restore=False):
+            pass
+        assert all(signal.getsignal(s) == signal.SIG_IGN for s in before)
+    finally:
+        for s, handler in before.items():
+            signal.signal(s, handler)
+
+
 def test_a_full_disk_is_one_line_and_exit_4(tmp_path, capsys, monkeypatch):
     """No space left while writing a checkpoint: one line naming the file and the last complete
     checkpoint (each is written under a temporary name first), exit status 4, no traceback."""

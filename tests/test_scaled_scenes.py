@@ -34,3 +34,20 @@ def test_scaled_cells_keep_bs_packing_and_roughness(name, k, n):
     assert count == n == pytest.approx(n_b * k * k, abs=1)
     assert free == pytest.approx(free_b, rel=1e-4)  # counts rounded to integers
     assert spacing == pytest.approx(spacing_b, rel=2e-3)  # wall counts rounded too
+
+
+def test_scaled_cells_start_as_tight_as_the_placement_allows():
+    """The 30k cell's outer ring starts where the placement (pardem.placement) just fits every
+    disk: it places them there, and refuses 0.5 % closer to the final radius."""
+    import dataclasses
+
+    from pardem.placement import initial_configuration
+    from pardem.scene import SceneError, load_scene
+
+    scene = load_scene(RUN_SCRIPTS / "couette_B_30k.toml")
+    assert initial_configuration(scene).n_free == 30096
+    g = scene.geometry
+    closer = dataclasses.replace(g, outer_start_radius=g.outer_start_radius - 0.005 * (
+        g.outer_start_radius - g.inner_radius))
+    with pytest.raises(SceneError, match="cannot place"):
+        initial_configuration(dataclasses.replace(scene, geometry=closer))
