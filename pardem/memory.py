@@ -1,10 +1,11 @@
 """Memory a scene needs, checked before anything is allocated.
 
-Stage: set-up. Every rank builds the whole initial state before it keeps its own share, so a
-rank's peak is about ``BYTES_PER_PARTICLE`` times the scene's total particle count (wall disks
-included) plus the interpreter and the compiled kernels. A scene that cannot fit in the memory
-the node has available for its ranks is refused with the numbers, instead of a MemoryError
-(or the kernel's out-of-memory killer) somewhere in the placement.
+Stage: set-up. Every rank places the whole cell (positions, radii, masses of every particle:
+the sectors are cut from them) and then builds the arrays of its own share only, so a rank's
+peak is at most about ``BYTES_PER_PARTICLE`` times the scene's total particle count (wall disks
+included) plus the interpreter and the compiled kernels, on any number of ranks. A scene that
+cannot fit in the memory the node has available for its ranks is refused with the numbers,
+instead of a MemoryError (or the kernel's out-of-memory killer) somewhere in the placement.
 """
 
 from __future__ import annotations
@@ -16,10 +17,11 @@ from .parallel import smallest_node_share
 from .scene import Scene, SceneError
 from .walls import wall_layout
 
-BYTES_PER_PARTICLE = 1000
-"""Peak resident bytes per particle of one rank at set-up and in the first steps: measured
-700 B (marginal, 0.3M to 1M disks of the scaled couette_B) and rounded up for the neighbour
-lists of a dense packing."""
+BYTES_PER_PARTICLE = 600
+"""Peak resident bytes per particle of the whole cell, per rank, at set-up and in the first
+steps, above the imports (124 MB): measured for the scaled couette_B at 300k and 1M disks 475
+and 357 B on 1 rank, 471 and 408 B per rank on 2 (``max RSS``; the placement's lattice and the
+first exchange's copies are the peak), rounded up for the neighbour lists of a dense packing."""
 
 BASE_BYTES = 200e6
 """The interpreter, numpy, numba and the loaded kernels (measured 110 MB), rounded up."""
@@ -72,7 +74,7 @@ def check_memory(scene: Scene, comm=None) -> None:
         raise SceneError(
             f"{particle_count(scene)} particles (wall disks included) need about "
             f"{size_text(need)} per rank at set-up (~{BYTES_PER_PARTICLE} bytes per particle: "
-            f"every rank builds the whole initial state); only {size_text(share)} per rank is "
+            f"every rank places the whole cell); only {size_text(share)} per rank is "
             f"available ({ranks} rank(s)); use fewer particles or a machine with more memory")
 
 

@@ -18,7 +18,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .scene import Scene, SceneError
-from .state import FREE, INNER_WALL, OUTER_WALL, Particles, new_particles
+from .state import (FREE, INNER_WALL, OUTER_WALL, Particles, new_particles, packed,
+                    unpack_particles)
 from .walls import wall_disk_angles, wall_layout
 
 
@@ -120,20 +121,40 @@ def _triangular(r_lo: float, r_hi: float, s: float) -> np.ndarray:
     return np.column_stack([px[keep], py[keep]])
 
 
-def whole_cell(init: Initial, hist: int) -> Particles:
-    """The particle arrays of the whole cell in gid order (every rank builds them, then keeps
-    its share), with ``hist`` history columns for the ring contacts (0: none)."""
-    n = init.radius.size
+def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None) -> Particles:
+    """The particle arrays of the rows ``idx`` (gids, in that order; None: the whole cell in
+    gid order), with ``hist`` history columns for the ring contacts (0: none). A rank builds
+    only its own share and the wall disks: whole-cell arrays on every rank were most of a
+    large scene's set-up memory."""
+    if idx is None:
+        idx = np.arange(init.radius.size)
+    n = idx.size
     ps = new_particles(n, hist)
-    ps.gid[:] = np.arange(n)
-    ps.kind[:] = init.kind
-    ps.x[:] = init.x
-    ps.v[:] = init.v
-    ps.omega[:] = init.omega
-    ps.radius[:] = init.radius
-    ps.mass[:] = init.mass
-    ps.inv_mass[:] = 1.0 / init.mass
-    ps.inv_inertia[:] = 2.0 / (init.mass * init.radius**2)  # I = m d^2 / 8
-    ps.phi0[:] = init.phi0
-    ps.e0[:] = np.column_stack([np.cos(init.phi0), np.sin(init.phi0)])
+    ps.gid[:] = idx
+    ps.kind[:] = init.kind[idx]
+    ps.x[:] = init.x[idx]
+    ps.v[:] = init.v[idx]
+    ps.omega[:] = init.omega[idx]
+    ps.radius[:] = init.radius[idx]
+    ps.mass[:] = init.mass[idx]
+    ps.inv_mass[:] = 1.0 / ps.mass
+    ps.inv_inertia[:] = 2.0 / (ps.mass * ps.radius**2)  # I = m d^2 / 8
+    ps.phi0[:] = init.phi0[idx]
+    ps.e0[:] = np.column_stack([np.cos(ps.phi0), np.sin(ps.phi0)])
     return ps
+
+
+def rank_share(init: Initial, whole: Particles | None, decomp, hist: int):
+    """This rank's rows, [its sector's free particles | every wall disk] in gid order, and how
+    many are free: the sectors are cut first (``decomp.place_sectors``, from every free
+    particle's position). From ``whole`` (the whole cell's arrays, a restart's) if given, else
+    built from ``init`` for these rows alone."""
+    x_free = (whole if whole is not None else init).x[:init.n_free]
+    decomp.place_sectors(x_free)
+    mine = np.flatnonzero(decomp.sectors.owner(x_free) == decomp.rank)
+    idx = np.concatenate([mine, np.arange(init.n_free, init.radius.size)])
+    if whole is None:
+        return cell_rows(init, hist, idx), mine.size
+    ps = new_particles(idx.size, hist)
+    unpack_particles(packed(whole, idx, hist), ps, 0)
+    return ps, mine.size

@@ -35,12 +35,12 @@ from .output.averages import make_averager, resume, sample_grid
 from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
 from .memory import check_memory
-from .placement import initial_configuration, whole_cell
+from .placement import cell_rows, initial_configuration, rank_share
 from .neighbors import WALL_SKINS
 from .rebuild import place_idle_walls, rebuild
 from . import stop
 from .scene import Scene, SceneError, write_scene
-from .state import Params, new_clock, new_pairs, new_particles, packed, unpack_particles
+from .state import Params, new_clock, new_pairs
 from .step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
 from .timestep import resolve_dt
 from .views import StateViews
@@ -108,9 +108,10 @@ class Simulation(StateViews):
         self.decomp = decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
                                     g.inner_radius if g else 0.0,
                                     margin=GHOST_MARGIN_SKINS * skin)
-        ps = whole_cell(init, self.hist)
-        n = ps.gid.size
-        self.clock = new_clock(init.n_free, n, self.prm.rings.r_out0)
+        # a restart reads the whole cell (every rank gets the checkpoint's arrays); a fresh
+        # start builds only this rank's rows, below
+        ps = cell_rows(init, self.hist) if restart is not None else None
+        self.clock = new_clock(init.n_free, init.radius.size, self.prm.rings.r_out0)
         # the in-situ averager ([averaging] table; None without), kept across run() calls
         self.rings = make_averager(scene, self._free_radii, self.decomp)
         history, recorded = None, None
@@ -129,19 +130,16 @@ class Simulation(StateViews):
                 self.folder_lock.release()
             if removed:
                 self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
-        self.decomp.place_sectors(ps.x[:init.n_free])
-        owner = self.decomp.sectors.owner(ps.x[:init.n_free])
-        mine = np.flatnonzero(owner == self.decomp.rank)
-        rows = packed(ps, np.concatenate([mine, np.arange(init.n_free, n)]), self.hist)
-        self.ps = new_particles(rows.shape[0], self.hist)
-        unpack_particles(rows, self.ps, 0)
-        self.clock.n_owned[0] = mine.size
-        self.clock.n_local[0] = rows.shape[0]
-        self.clock.n_moving[0] = rows.shape[0]  # every wall disk is at time t: none idle yet
+        self.ps, n_owned = rank_share(init, ps, self.decomp, self.hist)
+        wall_radius = float(init.radius[init.n_free:].max(initial=0.0))
+        del ps, init  # the whole cell's arrays: not kept
+        n = self.ps.gid.size
+        self.clock.n_owned[0] = n_owned
+        self.clock.n_local[0] = n
+        self.clock.n_moving[0] = n  # every wall disk is at time t: none idle yet
         # rebuild.order_walls: no owned particle gets this close to an idle wall disk between
         # exchanges
-        self.wall_margin = self.decomp.ghost_width + self.prm.wall_skin + 2.0 * float(
-            init.radius[init.n_free:].max(initial=0.0))
+        self.wall_margin = self.decomp.ghost_width + self.prm.wall_skin + 2.0 * wall_radius
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.hist)
         compile_ahead(self, history)  # parallel runs: the ranks share a cold compile
         self._rebuild(history=history, rebalance=False)

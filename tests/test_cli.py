@@ -125,7 +125,7 @@ def test_more_particles_than_fit_is_refused(tmp_path, capsys):
 def test_a_scene_too_large_for_the_memory_is_refused_before_allocating(tmp_path, capsys,
                                                                         monkeypatch):
     """10^9 disks in a cell wide enough for them (62 m to 300 m rings) pass every check of the
-    file; at ~1 kB per particle they need ~932 GiB per rank. Refused before the placement
+    file; at ~600 B per particle they need ~559 GiB per rank. Refused before the placement
     allocates anything (without the check numpy raises MemoryError there), on a node that has
     64 GiB available."""
     import pardem.memory
@@ -143,10 +143,10 @@ def test_a_scene_too_large_for_the_memory_is_refused_before_allocating(tmp_path,
     assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
     assert f"pardem: error: {path}: 1000016000 particles (wall disks included) need about" in err
-    assert "932 GiB per rank" in err  # (1,000,016,000 x 1000 B + 200 MB) / 2^30 = 931.5
+    assert "559 GiB per rank" in err  # (1,000,016,000 x 600 B + 200 MB) / 2^30 = 559.0
     assert "only 64 GiB per rank is available" in err
     assert main(["check", str(path)]) == 0
-    assert "# memory: about 932 GiB per rank at set-up" in capsys.readouterr().out
+    assert "# memory: about 559 GiB per rank at set-up" in capsys.readouterr().out
 
 
 def test_a_folder_holding_another_run_needs_overwrite(tmp_path, capsys):
