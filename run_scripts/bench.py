@@ -91,6 +91,17 @@ def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
         run.advance_steps(50)
     run.reset_timers()
     exchanges = run.decomp.n_exchanges
+    spent = []  # s per exchange (the build that migrates, selects ghosts and lists)
+    if comm.size > 1:
+        distribute = run.decomp.distribute
+
+        def timed(*args):
+            t = time.perf_counter()
+            out = distribute(*args)
+            spent.append(time.perf_counter() - t)
+            return out
+
+        run.decomp.distribute = timed
     comm.Barrier()
     t0 = time.perf_counter()
     run.advance_steps(steps)
@@ -99,6 +110,7 @@ def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
     mine = run.stats()
     mine["rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # bytes (Linux)
     mine["setup"] = setup
+    mine["exchange_s"] = sum(spent)
     mine.update({"step_us": 1e6 * run.timers["forces+integration"] / steps,
                  "rebuild_us": 1e6 * run.timers["neighbour rebuild"] / steps,
                  "wait_us": 1e6 * mine.pop("wait") / steps})

@@ -14,7 +14,8 @@ the median M flow-particle-steps/s with the spread over the rounds, that median 
 smallest scene's 1-rank median (per-particle cost, same invocation), the speed-up over 1 rank
 (median of the per-round ratios and their range), the largest resident memory per rank (MB, and
 bytes per owned disk), the restart's set-up (s, compiled code loaded from the cache), ghosts
-per rank, and neighbour builds per 1000 steps.
+per rank, and neighbour builds per 1000 steps; each run's line gives rank 0's time per build,
+exchanges (migration, ghost selection and the lists, ``Decomposition.distribute``) apart.
 """
 
 from __future__ import annotations
@@ -82,12 +83,15 @@ def main() -> None:
                 res["steps"] = steps
                 last[scene, p] = res
                 rates[scene, p].append(res["n_free"] * steps / res["wall"])
-                per_build = res["ranks"][0]["rebuild_us"] * steps / max(res["rebuilds"], 1)
+                r0, n_x = res["ranks"][0], res["exchanges"]
+                build_ms = 1e-3 * r0["rebuild_us"] * steps  # all builds, rank 0
+                local = (build_ms - 1e3 * r0["exchange_s"]) / max(res["rebuilds"] - n_x, 1)
                 print(f"round {k + 1}: {scene.stem}, {p} rank(s): {steps} steps in "
                       f"{res['wall']:.2f} s -> {rates[scene, p][-1] / 1e6:.2f} M "
-                      f"flow-particle-steps/s, {res['rebuilds']} builds ({res['exchanges']} "
-                      f"exchanges; {per_build / 1e3:.1f} ms per build on rank 0), ghosts "
-                      f"{res['ghosts']}",
+                      f"flow-particle-steps/s, {res['rebuilds']} builds, {n_x} of them "
+                      f"exchanges (rank 0: {local:.1f} ms per other build"
+                      + (f", {1e3 * r0['exchange_s'] / n_x:.1f} ms per exchange" if n_x else "")
+                      + f"), ghosts {res['ghosts']}",
                       flush=True)
     base = statistics.median(rates[scenes[0], min(args.ranks)])
     print("\n| N | ranks | M particle-steps/s (median; range) | per-particle speed vs "
