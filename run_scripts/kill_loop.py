@@ -21,10 +21,12 @@ run of the loop continues from there with a snapshot every step and a checkpoint
 3. the folder is checked: every snapshot file opens and equals the reference's file of the same
    index in every dataset and attribute (the owning rank aside); the indexes run contiguously
    from the prep's step; both XDMF indexes parse and name only existing files and datasets, of
-   the stated shapes. A file found equal is read again only if its inode, modification time or
+   the stated shapes, and particles.xdmf names the series from its start without a hole (the
+   newest files may be missing from it: a kill between a file's rename and the index's
+   rewrite, or during a restart's deletions). A file found equal is read again only if its inode, modification time or
    size changed (a completed file is never written again: that is what is tested);
-4. a run that is not killed (it reached its end) must have written the whole series and the
-   reference's final checkpoint; the loop then starts over in an emptied folder.
+4. a run that is not killed (it reached its end) must have written the whole series, indexed,
+   and the reference's final checkpoint; the loop then starts over in an emptied folder.
 Prints a line per problem and the counts (also as ``RESULT {json}``): kills (or signal stops);
 those that struck after the run had written snapshots; those that left a partial file
 (``*.tmp``); completed runs; hung runs and unclean stops (signals only); corrupted folders (any
@@ -123,11 +125,17 @@ def problems(run: Path, ref: dict[int, tuple], first: int, verified: dict) -> li
     known = {f"snapshots/{files[i].name}": {n: getattr(a, "shape", None)
                                             for n, a in ref[i][1].items()}
              for i in indexes if files[i] in verified}
+    # the particle index must list a prefix of the series, without holes: the newest files
+    # may be missing from it (a kill between a file's rename and the index's rewrite, or while a
+    # restart deletes the files past its checkpoint after shortening the index); contacts.xdmf
+    # leaves out snapshots without contacts
+    series = [f"snapshots/{files[i].name}" for i in indexes]
     for kind in ("particles", "contacts"):
         index = run / f"{kind}.xdmf"
         if index.exists():
             try:
-                found += xdmf_problems(index, run, known)
+                found += xdmf_problems(index, run, known,
+                                       series if kind == "particles" else [])
             except Exception as e:  # noqa: BLE001
                 found.append(f"{index.name}: cannot be read ({type(e).__name__}: {e})")
     return found
@@ -141,9 +149,16 @@ def differences(attrs: dict, data: dict, ref_attrs: dict, ref_data: dict) -> lis
                    if a is not None and name != "rank" and not np.array_equal(a, ref_data[name])]
 
 
-def xdmf_problems(index: Path, run: Path, known: dict[str, dict]) -> list[str]:
+def named_files(index: Path) -> set[str]:
+    """The files an XDMF index names."""
+    return {item.text.split(":")[0] for item in ET.parse(index).getroot().iter("DataItem")}
+
+
+def xdmf_problems(index: Path, run: Path, known: dict[str, dict],
+                  series: list[str]) -> list[str]:
     """What is wrong with an XDMF index: files or datasets it names that do not exist, or not
-    of the stated shapes. ``known``: {file name: {dataset: shape}} of the files verified."""
+    of the stated shapes, and a hole: a file of ``series`` (in order) it leaves out before one
+    it names. ``known``: {file name: {dataset: shape}} of the files verified."""
     grids = ET.parse(index).getroot().find("Domain").find("Grid").findall("Grid")
     items: dict[str, list] = {}  # file -> [(dataset path, shape)]: each file opened once
     for grid in grids:
@@ -151,7 +166,9 @@ def xdmf_problems(index: Path, run: Path, known: dict[str, dict]) -> list[str]:
             name, path = item.text.split(":")
             shape = tuple(int(d) for d in item.get("Dimensions").split())
             items.setdefault(name, []).append((path.lstrip("/"), shape))
-    found = []
+    named = [name in items for name in series]
+    found = [f"{index.name} leaves out {name} but names a later file"
+             for k, name in enumerate(series) if not named[k] and any(named[k + 1:])]
     for name, wanted in items.items():
         if not (run / name).exists():
             found.append(f"{index.name} names {name}, which does not exist")
@@ -207,6 +224,8 @@ def kill_loop(kills: int, ranks: int, work: Path, seed: int = 0, steps: int = 20
             counts["completed"] += 1
             if sorted(snapshot_files(run)) != sorted(reference):
                 found.append("a completed run lacks snapshots")
+            elif len(named_files(run / "particles.xdmf")) != len(reference):
+                found.append("a completed run's particles.xdmf does not name every snapshot")
             if not same_checkpoint(run / "checkpoint.h5", ref / "checkpoint.h5"):
                 found.append("a completed run ends in another state than the reference")
             shutil.rmtree(run)
