@@ -13,7 +13,9 @@ starts at the smallest radius at which the placement's lattice (spaced by the la
 still holds every disk, 1.001 times that for rounding, and moves in with B's compression
 profile at B's peak speed times k (the same compression strain rate), so the compression
 travel and time are ~1/3 of a scaled B's (area fraction ~0.66 at the start). A denser start
-than the lattice gives needs overlapping disks to be relaxed, which the compression does.
+than the lattice gives needs overlapping disks to be relaxed, which the compression does. The
+ring's speed grows with k (0.61 m/s at k = 10): at 300k both starts leave overlaps of ~10 % of
+a diameter half a second after the compression (docs/scaling.md, "Their start").
 
 The shipped couette_B_30k, _300k and _1M are K = 3.2, 10 and 18.5 (30,096, 293,900 and
 1,005,872 free disks).
