@@ -18,6 +18,6 @@ pytestmark = pytest.mark.slow
 def test_random_kills_never_corrupt_the_series(ranks, tmp_path):
     counts = kill_loop(kills=12, ranks=ranks, work=tmp_path, seed=ranks, steps=60,
                        checkpoint_every=10, say=print)
-    assert counts["kills"] == 12
-    assert counts["while_writing"] >= 6  # most kills must strike a run that writes
-    assert counts["corrupted"] == 0
+    assert counts["kills"] == 12, counts
+    assert counts["while_writing"] >= 6, counts  # most kills must strike a run that writes
+    assert counts["corrupted"] == 0, counts  # the problems found are printed above
