@@ -10,12 +10,11 @@ fraction is B's; the wall disks' half-areas, 0.0047 of B's global 0.81, shrink t
 
 The start is not B's dilute one (R_o' = 0.33 m, area fraction 0.44) scaled: the outer ring
 starts at the smallest radius at which the placement's lattice (spaced by the largest diameter)
-still holds every disk, 1.001 times that for rounding, and moves in with B's compression
-profile at B's peak speed times k (the same compression strain rate), so the compression
-travel and time are ~1/3 of a scaled B's (area fraction ~0.66 at the start). A denser start
-than the lattice gives needs overlapping disks to be relaxed, which the compression does. The
-ring's speed grows with k (0.61 m/s at k = 10): at 300k both starts leave overlaps of ~10 % of
-a diameter half a second after the compression (docs/scaling.md, "Their start").
+still holds every disk, 1.001 times that for rounding (area fraction ~0.66 at the start, the
+travel ~1/3 of a scaled B's). The ring moves in with B's compression profile at k times B's
+speed (B's compression strain rate), but never faster than ``MAX_RING_SPEED``: 0.69 s at 30k
+(not capped), 1.95 s at 300k, 3.56 s at 1M. A denser start than the lattice gives needs
+overlapping disks to be relaxed, which the compression does.
 
 The shipped couette_B_30k, _300k and _1M are K = 3.2, 10 and 18.5 (30,096, 293,900 and
 1,005,872 free disks).
@@ -30,6 +29,11 @@ import tomllib
 from pathlib import Path
 
 B = Path(__file__).resolve().parent / "couette_B.toml"
+MAX_RING_SPEED = 0.2
+"""m/s: the compressing ring's largest speed in a scaled cell. A disk hit at speed v overlaps
+it by up to v sqrt(m/k_n): 0.24 mm at 0.2 m/s, 2.6 % of B's large diameter (B's own ring: 0.061
+m/s). Measured at 300k: 3.3 % largest overlap half a second after a compression at 0.195 m/s,
+11.9 % at 0.61 m/s (k times B's speed)."""
 
 
 def scaled(k: float, end: float = 30.0) -> str:
@@ -59,11 +63,14 @@ def scaled(k: float, end: float = 30.0) -> str:
     r_tight = tightest_start(g["inner_radius"] + wall / 2, sum(s["count"] for s in d["species"]),
                              max(diameters), wall)
     b = tomllib.loads(B.read_text())["geometry"]
-    peak_speed = k * (b["outer_start_radius"] - b["outer_radius"]) / b["compression_time"]
-    t_comp = (r_tight - g["outer_radius"]) / peak_speed
+    # the ring's peak speed on the cosine profile: pi/2 x travel / time
+    peak = min(k * 0.5 * math.pi * (b["outer_start_radius"] - b["outer_radius"])
+               / b["compression_time"], MAX_RING_SPEED)
+    t_comp = 0.5 * math.pi * (r_tight - g["outer_radius"]) / peak
     for key, value, note in (
             ("outer_start_radius", r_tight, "m, the tightest lattice start (see scaled_scene.py)"),
-            ("compression_time", round(t_comp, 3), "s, at B's compression strain rate")):
+            ("compression_time", round(t_comp, 3),
+             f"s, ring speed up to {peak:.3g} m/s (see scaled_scene.py)")):
         line = f"{key} = {value:g}"
         text = re.sub(rf"^{key}\s*=.*$", f"{line:<33}# {note}", text, count=1, flags=re.M)
     text = re.sub(r'^name = "couette-B"', f'name = "couette-B-x{k:g}"', text, flags=re.M)
