@@ -106,7 +106,9 @@ def test_repeated_sigint_to_one_rank_stops_every_rank(tmp_path, which):
 def test_sigint_during_set_up_is_one_line_and_no_hang(tmp_path, ranks, which):
     """Ctrl-C before the time-step loop (reading the scene, building the state, compiling):
     Python's KeyboardInterrupt, turned into one line and exit 130 by the rank that got it; a
-    parallel job ends on every rank instead of waiting in set-up's collectives."""
+    parallel job ends on every rank instead of waiting in set-up's collectives. An empty numba
+    cache keeps the set-up busy compiling for many seconds: with the kernels cached it can end
+    (and a short run with it) before the signal arrives."""
     scene = tmp_path / "setup.toml"
     write_scene(couette_scene(counts=(260, 40), geometry=CELL, name="setup"), scene)
     cmd = [sys.executable, "-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / "o"),
@@ -114,7 +116,8 @@ def test_sigint_during_set_up_is_one_line_and_no_hang(tmp_path, ranks, which):
     if ranks > 1:
         cmd = [mpiexec(), "-n", str(ranks), *cmd]
     proc = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
-                            env=ENV, start_new_session=True)
+                            env=dict(ENV, NUMBA_CACHE_DIR=str(tmp_path / "numba")),
+                            start_new_session=True)
     first = proc.stderr.readline()  # written after the scene is read, before the set-up
     assert "building the initial state" in first, first
     pids = ranks_of(tmp_path / "o")
