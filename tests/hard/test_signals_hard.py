@@ -107,8 +107,8 @@ def test_sigint_during_set_up_is_one_line_and_no_hang(tmp_path, ranks, which):
     """Ctrl-C before the time-step loop (reading the scene, building the state, compiling):
     Python's KeyboardInterrupt, turned into one line and exit 130 by the rank that got it; a
     parallel job ends on every rank instead of waiting in set-up's collectives. The kernels are
-    cached (a cold compile spends up to tens of seconds in LLVM, where Python cannot act on the
-    signal), so the set-up lasts ~0.4 s: the signal goes out as soon as the first line is read,
+    cached (with a cold compile, one CI run saw no exit within 30 s: docs/running.md), so the
+    set-up lasts ~0.4 s: the signal goes out as soon as the first line is read,
     to the process itself on one rank (finding the ranks of a parallel job takes a scan of
     /proc)."""
     scene = tmp_path / "setup.toml"
