@@ -74,6 +74,16 @@ def compress(ckpt: Path, scene: Path = SCENE, at: float = 2.5) -> None:
     sim.write_checkpoint(ckpt)
 
 
+def compress_in(tree: Path, ckpt: Path, env: dict, scene: Path = SCENE, at: float = 2.5) -> None:
+    """``compress`` with the code of ``tree`` (its own bench.py), in a process of its own. B to
+    2.5 s passes no scene: an older bench.py's compress may not take one."""
+    extra = "" if (scene, at) == (SCENE, 2.5) else f", Path({str(scene)!r}), {at!r}"
+    subprocess.run([sys.executable, "-c", "import sys; from pathlib import Path; "
+                    f"sys.path[:0] = [{str(tree)!r}, {str(tree / 'run_scripts')!r}]; "
+                    f"import bench; bench.compress(Path({str(ckpt)!r}){extra})"],
+                   check=True, env=dict(env, PYTHONPATH=str(tree)))
+
+
 def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
     """One timed run (under mpiexec): prints a JSON line on rank 0."""
     from mpi4py import MPI
@@ -157,12 +167,7 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
                         print(f"compressed state from {checkpoint}")
                         continue
                 print(f"{code} code ({tree}):", end=" ", flush=True)
-                subprocess.run([sys.executable, "-c", "import sys; from pathlib import Path; "
-                                f"sys.path[:0] = [{str(tree)!r}, {str(tree / 'run_scripts')!r}]; "
-                                f"import bench; bench.compress(Path({str(ckpts[code])!r})" +
-                                ("" if scene == SCENE else f", Path({str(scene)!r}), {at!r}") +
-                                ")"],
-                               check=True, env=dict(env, PYTHONPATH=str(tree)))
+                compress_in(tree, ckpts[code], env, scene, at)
             for k in range(repeats):
                 for p in ranks:
                     for e in variants:

@@ -30,26 +30,9 @@ from pathlib import Path
 import numba as nb
 import numpy as np
 
+from pardem.parallel.sectors import edge_distance, edge_vectors
+
 HERE = Path(__file__).resolve().parent
-
-
-@nb.njit(cache=True)
-def _wedge_distance(px, py, a0, a1):
-    """Distance from (px, py) to the wedge a0 <= angle <= a1 (a1 - a0 < pi), 0 inside."""
-    a = math.atan2(py, px)
-    mid = 0.5 * (a0 + a1)
-    d = (a - mid + math.pi) % (2 * math.pi) - math.pi
-    if abs(d) <= 0.5 * (a1 - a0):
-        return 0.0
-    best = math.inf
-    for e in (a0, a1):
-        ex, ey = math.cos(e), math.sin(e)
-        t = px * ex + py * ey
-        if t > 0.0:
-            best = min(best, abs(px * ey - py * ex))
-        else:
-            best = min(best, math.hypot(px, py))
-    return best
 
 
 @nb.njit(cache=True)
@@ -70,9 +53,10 @@ def _patch_distance(px, py, r0, r1, a0, a1):
 
 
 @nb.njit(cache=True)
-def _count(x, ang_sorted, order, domains, w):
-    """Per domain (r0, r1, a0, a1; r1 = inf for a sector): owned disks, ghosts, and the
-    domains whose disks it takes as ghosts. Candidates come from an angular window around
+def _count(x, ang_sorted, order, domains, edges, w):
+    """Per domain (r0, r1, a0, a1; r1 = inf for a sector, ``edges`` then its edge vectors,
+    ``parallel.sectors.edge_vectors``): owned disks, ghosts, and the domains whose disks it
+    takes as ghosts. Candidates come from an angular window around
     the domain (``ang_sorted``: the disks' angles ascending, ``order``: their indices)."""
     n_dom = domains.shape[0]
     owned = np.zeros(n_dom, np.int64)
@@ -100,8 +84,8 @@ def _count(x, ang_sorted, order, domains, w):
                 k = order[q]
                 if home[k] == d or r_all[k] < r0 - w or r_all[k] > r1 + w:
                     continue
-                if math.isinf(r1):
-                    dist = _wedge_distance(x[k, 0], x[k, 1], a0, a1)
+                if math.isinf(r1):  # a sector: pardem's own distance to its edge rays
+                    dist = edge_distance(x[k, 0], x[k, 1], edges, d)
                 else:
                     dist = _patch_distance(x[k, 0], x[k, 1], r0, r1, a0, a1)
                 if dist < w:
@@ -183,12 +167,12 @@ def main() -> None:
         best = None
         for rings in [d for d in range(2, p + 1) if p % d == 0 and d <= 64]:
             doms = patches(x, rings, p // rings, g.inner_radius, g.outer_radius)
-            owned, ghosts, nbr, _ = _count(x, ang_sorted, order, doms, w)
+            owned, ghosts, nbr, _ = _count(x, ang_sorted, order, doms, np.zeros((1, 2)), w)
             if best is None or ghosts.max() < best[1][1].max():
                 best = (rings, (owned, ghosts, nbr))
         rows = []
         for name, doms in candidates:
-            rows.append((name, _count(x, ang_sorted, order, doms, w)[:3]))
+            rows.append((name, _count(x, ang_sorted, order, doms, edge_vectors(edges), w)[:3]))
         rows.append((f"{best[0]} rings x {p // best[0]}", best[1]))
         for name, (owned, ghosts, nbr) in rows:
             assert owned.sum() == n

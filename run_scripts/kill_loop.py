@@ -15,16 +15,17 @@ run of the loop continues from there with a snapshot every step and a checkpoint
 1. the reference runs once, uninterrupted; its wall time T sets the kill window;
 2. a run starts (``pardem run --restart`` from the folder's own checkpoint, or from the prep's
    while the folder has none) and mpiexec and every rank get SIGKILL at a uniformly random
-   moment in [0, T]; a signal (INT, TERM) is sent at a random
-   moment after the run has written its first snapshot (before, the run has not installed its
-   handlers: Python's defaults apply), to the launcher or to one rank, chosen at random;
+   moment in [0, T]; a signal (INT, TERM) is sent at a random moment after the run has written
+   its first snapshot (before, the run has not installed its handlers: Python's defaults
+   apply), to the launcher or to one rank, chosen at random;
 3. the folder is checked: every snapshot file opens and equals the reference's file of the same
    index in every dataset and attribute (the owning rank aside); the indexes run contiguously
    from the prep's step; both XDMF indexes parse and name only existing files and datasets, of
    the stated shapes, and particles.xdmf names the series from its start without a hole (the
    newest files may be missing from it: a kill between a file's rename and the index's
-   rewrite, or during a restart's deletions). A file found equal is read again only if its inode, modification time or
-   size changed (a completed file is never written again: that is what is tested);
+   rewrite, or during a restart's deletions). A file found equal is read again only if its
+   inode, modification time or size changed (a completed file is never written again: that is
+   what is tested);
 4. a run that is not killed (it reached its end) must have written the whole series, indexed,
    and the reference's final checkpoint; the loop then starts over in an emptied folder.
 Prints a line per problem and the counts (also as ``RESULT {json}``): kills (or signal stops);

@@ -23,7 +23,6 @@ from __future__ import annotations
 import argparse
 import os
 import statistics
-import subprocess
 import sys
 import tomllib
 from pathlib import Path
@@ -46,10 +45,7 @@ def ensure_checkpoint(scene: Path, at: float, ckpt: Path, env: dict) -> None:
         return
     ckpt.parent.mkdir(parents=True, exist_ok=True)
     tmp = ckpt.with_suffix(".tmp.h5")
-    subprocess.run([sys.executable, "-c", "import sys; from pathlib import Path; "
-                    f"sys.path[:0] = [{str(ROOT)!r}, {str(HERE)!r}]; import bench; "
-                    f"bench.compress(Path({str(tmp)!r}), Path({str(scene)!r}), {at!r})"],
-                   check=True, env=dict(env, PYTHONPATH=str(ROOT)))
+    bench.compress_in(ROOT, tmp, env, scene, at)
     tmp.rename(ckpt)
 
 
