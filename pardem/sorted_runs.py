@@ -54,3 +54,21 @@ def run_order(keys, n):
         runs = merged
         a, b = b, a
     return a
+
+
+@nb.njit(**JIT)
+def merge_slots(a, b, b_order):
+    """Where each key goes when the ascending keys ``a`` and the keys ``b`` (ascending in the
+    order ``b_order``) are merged into one ascending sequence, no key in both: returns
+    ``(slot_a, slot_b)``, slot_b in b_order's order."""
+    slot_a = np.empty(a.size, np.int64)
+    slot_b = np.empty(b_order.size, np.int64)
+    i, j = 0, 0
+    while i < a.size or j < b_order.size:
+        if j < b_order.size and (i == a.size or b[b_order[j]] < a[i]):
+            slot_b[j] = i + j
+            j += 1
+        else:
+            slot_a[i] = i + j
+            i += 1
+    return slot_a, slot_b

@@ -239,3 +239,36 @@ def unpack_particles(rows, ps, at):
                 for r in range(rows.shape[0]):
                     a2[at + r, q] = rows[r, c + q]
             c += a2.shape[1]
+
+
+
+@nb.njit(**JIT)
+def move_rows(ps, src, dst, rows, take, put):
+    """In place: row src[k] of every array of ps to row dst[k], then packed row rows[take[r]]
+    (``pack_particles``' columns) to row put[r]. src and dst ascending, put disjoint from dst.
+    At an exchange this replaces packing every owned row and unpacking it again (~3 passes of
+    strided copies, ~60 ms at 147,000 rows) by one pass per array over the rows that move."""
+    c = 0
+    for a in literal_unroll(ps):
+        if a.shape[0] > 0:
+            a2 = a.reshape((a.shape[0], -1))
+            _move_columns(a2, src, dst, rows[:, c:c + a2.shape[1]], take, put)
+            c += a2.shape[1]
+
+
+@nb.njit(**JIT)
+def _move_columns(a, src, dst, rows, take, put):
+    """``move_rows`` for one array. A row that moves down overwrites no row still to be read if
+    the rows move in ascending order, a row that moves up if they move in descending order;
+    the two sets do not interfere because src and dst both ascend."""
+    for k in range(src.size):
+        if dst[k] < src[k]:
+            for q in range(a.shape[1]):
+                a[dst[k], q] = a[src[k], q]
+    for k in range(src.size - 1, -1, -1):
+        if dst[k] > src[k]:
+            for q in range(a.shape[1]):
+                a[dst[k], q] = a[src[k], q]
+    for r in range(put.size):
+        for q in range(a.shape[1]):
+            a[put[r], q] = rows[take[r], q]

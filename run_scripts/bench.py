@@ -20,8 +20,9 @@ of eta as the ratio of the medians. Default "off", the dynamics alone. ``--check
 keep the compressed state there and reuse it if it exists (a 300k-disk compression takes
 minutes; the file must come from this scene and ``--at``). ``--against REV``: the
 same runs with the code of git revision REV (checked out into a temporary worktree, its own
-bench.py's worker on its own compressed checkpoint of this tree's couette_B.toml) alternating
-with this code's, round by round; prints the ratio of the medians and the per-round ratios.
+bench.py's worker on its own compressed checkpoint of this tree's couette_B.toml, or on
+``--checkpoint`` if given) alternating with this code's, round by round; prints the ratio of
+the medians and the per-round ratios.
 """
 
 from __future__ import annotations
@@ -161,10 +162,10 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
             ckpts = {}
             for code, tree in trees.items():
                 ckpts[code] = Path(tmp) / f"compressed-{code}.h5"
-                if code == "new" and checkpoint is not None:
+                if checkpoint is not None:  # both codes start from it (the new one makes it)
                     ckpts[code] = checkpoint
                     if checkpoint.exists():
-                        print(f"compressed state from {checkpoint}")
+                        print(f"{code} code: compressed state from {checkpoint}")
                         continue
                 print(f"{code} code ({tree}):", end=" ", flush=True)
                 compress_in(tree, ckpts[code], env, scene, at)
@@ -179,8 +180,8 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
                                   f"run {k + 1}: {steps} steps in {res['wall']:.3f} s -> "
                                   f"{rates[code, p, e][-1] / 1e6:.2f} M flow-particle-steps/s "
                                   f"({steps / res['wall']:.0f} steps/s, {res['rebuilds']} "
-                                  f"neighbour builds, ghosts per rank {res['ghosts']})",
-                                  flush=True)
+                                  f"neighbour builds, ghosts per rank {res['ghosts']}"
+                                  f"{_exchange_cost(res)})", flush=True)
         finally:
             if against:
                 subprocess.run(["git", "-C", str(HERE.parent), "worktree", "remove", "--force",
@@ -232,6 +233,14 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
                       f"medians); per round: {', '.join(f'{x:.2f}' for x in per_round)}, "
                       f"median {statistics.median(per_round):.2f}")
     return medians
+
+
+def _exchange_cost(res: dict) -> str:
+    """', N exchanges, X ms each' (rank 0's mean, lists included) for a parallel run."""
+    n = res.get("exchanges", 0)
+    if not n:
+        return ""
+    return f", {n} exchanges, {1e3 * res['ranks'][0]['exchange_s'] / n:.1f} ms each on rank 0"
 
 
 def _worker_run(mpiexec: Path, tree: Path, ckpt: Path, steps: int, eta: bool, ranks: int,

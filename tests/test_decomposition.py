@@ -7,8 +7,9 @@ import numpy as np
 import pytest
 
 from pardem.parallel import sectors
-from pardem.state import (FREE, new_particles, packed, particle_fields, row_columns, row_width,
-                          unpack_particles)
+from pardem.sorted_runs import merge_slots
+from pardem.state import (FREE, move_rows, new_particles, packed, particle_fields, row_columns,
+                          row_width, unpack_particles)
 
 EDGE_SETS = {
     "2 ranks, one wedge wider than pi": [-2.0, 2.4],
@@ -84,3 +85,40 @@ def test_packed_rows_come_back_unchanged(hist):
             assert not getattr(back, k)[:2].any() and not getattr(back, k)[2 + idx.size:].any()
     assert not hist or cols["hist_wall"].stop == row_width(hist)
     assert not hist or cols["hist_wall"].stop - cols["hist_wall"].start == hist
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_owned_rows_moved_in_place_equal_the_sorted_union(seed):
+    """An exchange's new owned block, [kept rows and arrivals, by gid], made in place
+    (merge_slots + move_rows) equals numpy's stable sort of their packed rows: leavers
+    anywhere, arrivals before, between and after the kept gids, the block growing into the
+    rows after it or shrinking, and the rows after the new block untouched."""
+    rng = np.random.default_rng(seed)
+    hist, n, cap = 3, 300, 700
+    ps = new_particles(cap, hist)
+    for k in particle_fields(hist):
+        v = getattr(ps, k)
+        if v.dtype == np.float64:
+            v[...] = rng.normal(size=v.shape)
+    pool = rng.choice(10**6, n + 200, replace=False)
+    ps.gid[:n] = np.sort(pool[:n])
+    ps.gid[n:] = -1
+    ps.kind[:] = rng.integers(FREE, 3, cap)
+    kept = np.sort(rng.choice(n, int(n * rng.uniform(0.5, 1.0)), replace=False))
+    n_arr = int(rng.integers(0, 200))
+    arrivals = rng.normal(size=(n_arr, row_width(hist)))
+    arrivals[:, row_columns(hist)["gid"]] = pool[n:n + n_arr, None]
+    arrivals[:, row_columns(hist)["kind"]] = rng.integers(FREE, 3, (n_arr, 1))
+    senders = np.sort(rng.choice(np.arange(1, n_arr), min(2, max(n_arr - 1, 0)), replace=False))
+    for part in np.split(np.arange(n_arr), senders):  # each sender's arrivals ascend
+        arrivals[part] = arrivals[part[np.argsort(arrivals[part, 0])]]
+    expected = np.concatenate([packed(ps, kept, hist), arrivals])
+    expected = expected[np.argsort(expected[:, 0], kind="stable")]
+    after = packed(ps, np.arange(expected.shape[0], cap), hist)
+
+    arr_gid = arrivals[:, 0].astype(np.int64)
+    order = np.argsort(arr_gid, kind="stable")
+    at_kept, at_arr = merge_slots(ps.gid[kept], arr_gid, order)
+    move_rows(ps, kept, at_kept, arrivals, order, at_arr)
+    np.testing.assert_array_equal(packed(ps, np.arange(expected.shape[0]), hist), expected)
+    np.testing.assert_array_equal(packed(ps, np.arange(expected.shape[0], cap), hist), after)

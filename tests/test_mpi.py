@@ -50,8 +50,10 @@ def test_couette_quick_is_bitwise_identical_on_1_2_3_4_ranks(tmp_path):
 def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
     """On 2 and 3 ranks with the ghosts refreshed through shared memory (the default on one
     node with a core per rank; by messages when oversubscribed), on 2 ranks also by messages,
-    once with a shared window that has to grow, and once switching between shared memory and
-    messages from exchange to exchange (a limit inside the range of refresh sizes)."""
+    once with a shared window that has to grow, once switching between shared memory and
+    messages from exchange to exchange (a limit inside the range of refresh sizes), and once
+    with no spare rows, so that exchanges that bring migrants store the new layout through
+    larger arrays instead of moving the rows in place."""
     scene = fast_shear_scene(tmp_path)
     steps = 20_000
     ref = dump_state(scene, steps, tmp_path / "r1.npz", 1)
@@ -61,7 +63,8 @@ def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
     check = ("--check-lists",)
     for n, extra, env, windows in ((2, check, None, 1), (3, check, None, 1),
                                    (2, (), messages, 0), (2, ("--grow-window",), None, 2),
-                                   (2, ("--shared-limit", "78"), None, 1)):
+                                   (2, ("--shared-limit", "78"), None, 1),
+                                   (2, ("--no-room",), None, 1)):
         label = f"{n} ranks {extra} {env or ''} vs 1"
         got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n, *extra, env=env)
         assert got["migrated"] >= 100, f"{label}: only {got['migrated']} migrations"
@@ -70,6 +73,8 @@ def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
         if extra == check:
             assert got["lists_checked"] == got["rebuilds"], label
         assert got["shared_windows"] == (windows if n <= cores else 0), label
+        if extra == ("--no-room",):
+            assert got["regrown"] >= 10, f"{label}: {got['regrown']} exchanges grew the arrays"
         if extra[:1] == ("--shared-limit",):
             assert 0 < got["shared_exchanges"] < got["exchanges"] - 20, label
         assert_same_state(ref, got, label)

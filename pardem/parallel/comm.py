@@ -176,7 +176,7 @@ class Decomposition:
         ring-contact candidates if ``ring_walls``; ``prm``: the step loop's Params). Returns
         ``(written, moved, own, walls, ghosts, lists, history)``: lists as from exchange_rows,
         the rest as from ``receive_rows``."""
-        err, (written, moved, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
+        err, (written, moved, _, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
             (peer_at, need), lists = exchange_rows(*self.exchange_arguments(
                 ps, pairs, clock, counts, hist, ring_walls, history, t, prm, wall_margin))
         if err:

@@ -30,8 +30,8 @@ import numpy as np
 from ..contact.history import SHIFT, live_history, merge_history
 from ..jit import JIT, copy_values
 from ..neighbors import build_lists
-from ..sorted_runs import run_order
-from ..state import pack_particles, unpack_particles
+from ..sorted_runs import merge_slots, run_order
+from ..state import move_rows, pack_particles, unpack_particles
 from ..walls import place_wall_disks
 from .halo import alltoallv, halo_buffers, peer_offsets
 from .sectors import edge_distance, edge_vectors, near, owners
@@ -78,12 +78,11 @@ def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, ha
                                                     handles)
     received = receive_rows(ps, counts, owner, (rbuf, recv_off), plan, history, t, prm,
                             handles, err == 0)
-    written, moved, n_near, _, own, _, ghosts, springs, buffers = received
+    written, _, n_own, n_near, _, _, _, ghosts, springs, buffers = received
     peer_at, need = np.zeros(0, np.int64), 0
     if plan.shared:
         peer_at, need, err2 = peer_offsets(buffers[0], buffers[1], buffers[2], handles)
         err |= err2
-    n_own = own.shape[0] if moved else n_owned
     clock.n_owned[0] = n_own
     clock.n_local[0] = n_own + counts[1] - n_owned
     clock.n_ghost[0] = ghosts.shape[0]
@@ -167,12 +166,13 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
     """Lay out [owned, gid-sorted | wall disks | ghosts, sorted by (owner, gid)] from the kept
     rows and the messages of ``send_rows`` (``received``: rbuf, recv_off), merge the migrants'
     history into ``history`` (lo, hi, rows), and plan the per-step refresh. ``counts`` as in
-    exchange_rows. If ``write`` and ps is large enough, the rows are written (only the ghosts
-    if no owned row left or arrived) and the wall disks arranged (``arrange_walls``; the
-    ``idle`` last ones are placed at time t first). Returns ``(written, moved, n_near,
-    n_arrived, own, walls, ghosts, history, halo)``: halo the ``halo_buffers`` of the refresh
-    plan. If not written, the caller stores own and walls (if moved; else they are empty and
-    ps[:n_local] stays) and ghosts."""
+    exchange_rows. If ``write`` and ps is large enough, the rows are written (the owned ones
+    moved in place, ``state.move_rows``; only the ghosts if no owned row left or arrived) and
+    the wall disks arranged (``arrange_walls``; the ``idle`` last ones are placed at time t
+    first). Returns ``(written, moved, n_own, n_near, n_arrived, own, walls, ghosts, history,
+    halo)``: n_own the new number of owned rows, halo the ``halo_buffers`` of the refresh plan.
+    If not written, the caller stores own and walls (if moved; else they are empty and
+    ps[:n_local] stays) and ghosts; if written, own is empty."""
     n_owned, n_local, idle = counts
     rbuf, recv_off = received
     edges, rank, ghost_width, width = plan.edges, plan.rank, plan.ghost_width, plan.width
@@ -225,34 +225,39 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
     ghosts = ghosts[run_order(key, key.size)]  # ascending runs: per sender, then the stayers
 
     moved = kept.size < n_owned or n_arr > 0
+    n_own = kept.size + n_arr
+    n_new = n_local - n_owned + n_own
+    written = write and n_new + ghosts.shape[0] <= ps.gid.size
     own = np.empty((0, width))
     walls = np.empty((0, width))
     if moved:
-        own = np.empty((kept.size + n_arr, width))
-        pack_particles(ps, kept, own)
-        for r in range(n_arr):
-            copy_values(own[kept.size + r], arrivals[r])
-        # column 0: gid; the kept rows, then each sender's arrivals: ascending runs
-        own = own[run_order(own[:, 0].astype(np.int64), own.shape[0])]
         walls = np.empty((n_local - n_owned, width))
         pack_particles(ps, np.arange(n_owned, n_local), walls)
+        # column 0: gid; each sender's arrivals are an ascending run
+        arr_gid = arrivals[:, 0].astype(np.int64)
+        arr_order = run_order(arr_gid, n_arr)
+        if written:  # the kept rows stay in ps; only those after a migrant move
+            at_kept, at_arr = merge_slots(ps.gid[kept], arr_gid, arr_order)
+            move_rows(ps, kept, at_kept, arrivals, arr_order, at_arr)
+        else:  # for the caller, who stores them in larger arrays
+            own = np.empty((n_own, width))
+            pack_particles(ps, kept, own)
+            for r in range(n_arr):
+                copy_values(own[kept.size + r], arrivals[r])
+            own = own[run_order(own[:, 0].astype(np.int64), n_own)]
     if n_sp:
         lo, hi, xi = merge_history(lo, hi, xi, springs)
 
-    n_own = own.shape[0] if moved else n_owned
-    x_own = own[:, plan.x_col:plan.x_col + 2] if moved else ps.x[:n_owned]
+    x_own = own[:, plan.x_col:plan.x_col + 2] if moved and not written else ps.x[:n_own]
     refresh = _refresh_plan(x_own, key, e, rank, ghost_width)
 
-    n_new = n_local - n_owned + n_own
-    written = write and n_new + ghosts.shape[0] <= ps.gid.size
     n_near = 0
     if written:
         if moved:
-            unpack_particles(own, ps, 0)
             unpack_particles(walls, ps, n_own)
         unpack_particles(ghosts, ps, n_new)
         n_near = arrange_walls(ps, n_own, n_new - idle, n_new, t, prm, plan)
-    return (written, moved, n_near, n_arr, own, walls, ghosts, (lo, hi, xi),
+    return (written, moved, n_own, n_near, n_arr, own, walls, ghosts, (lo, hi, xi),
             halo_buffers(refresh, handles))
 
 

@@ -2,6 +2,7 @@
 
     mpiexec -n P python -m mpi4py tests/mpi/dump_state.py SCENE STEPS OUT.npz [--restart CKPT]
         [--checkpoint-at STEP CKPT] [--grow-window] [--shared-limit DOUBLES] [--check-lists]
+        [--no-room]
 
 Rank 0 writes OUT.npz with every particle array and the springs (sorted by gid), plus the run's
 migration and rebuild counts and, summed over the ranks, the wall disks a rank does not move
@@ -12,7 +13,10 @@ refresh (doubles per rank) sent through shared memory, instead of
 ``pardem.parallel.comm.SHARED_HALO_LIMIT``. ``--check-lists``: after every neighbour build (local
 or with an exchange), the ranks' pair lists together must be exactly the pairs a brute-force
 search finds in the gathered positions (a ghost missing after a build without exchange would
-lose a pair); the number of builds checked is saved.
+lose a pair); the number of builds checked is saved. ``--no-room``: after every build the
+particle arrays are cut to the rows in use, so that an exchange that brings more rows than it
+takes away stores them through the caller's larger arrays (``rebuild.migrate``) instead of in
+place; the number of such exchanges on a rank that received migrants is saved.
 """
 
 import argparse
@@ -24,9 +28,11 @@ from pardem.parallel import comm as decomposition
 from pardem.parallel.halo import SharedWindow
 from pardem.scene import load_scene
 from pardem.simulation import Simulation
+from pardem.state import new_particles, packed, unpack_particles
 from pardem.testing import brute_force_pairs
 
 CHECKED = [0]
+REGROWN = [0]
 
 
 def check_lists(sim, comm) -> None:
@@ -58,6 +64,23 @@ def checked_rebuild(comm):
     return rebuild
 
 
+def cut_to_rows_in_use(comm):
+    """Simulation._rebuild, then the particle arrays cut to their rows in use; counts in
+    REGROWN the builds that had to store the rows in larger arrays while migrants arrived."""
+    original = Simulation._rebuild
+
+    def rebuild(self, *args, **kwargs):
+        ps, arrived = self.ps, self.decomp.n_migrated
+        original(self, *args, **kwargs)
+        REGROWN[0] += self.ps is not ps and self.decomp.n_migrated > arrived
+        c = self.clock
+        n = int(c.n_local[0] + c.n_ghost[0])
+        tight = new_particles(n, self.hist)
+        unpack_particles(packed(self.ps, np.arange(n), self.hist), tight, 0)
+        self.ps = tight
+    return rebuild
+
+
 def main():
     ap = argparse.ArgumentParser()
     ap.add_argument("scene")
@@ -68,12 +91,15 @@ def main():
     ap.add_argument("--grow-window", action="store_true")
     ap.add_argument("--shared-limit", type=int)
     ap.add_argument("--check-lists", action="store_true")
+    ap.add_argument("--no-room", action="store_true")
     args = ap.parse_args()
     if args.shared_limit is not None:
         decomposition.SHARED_HALO_LIMIT = args.shared_limit
     comm = MPI.COMM_WORLD
     if args.check_lists:
         Simulation._rebuild = checked_rebuild(comm)
+    if args.no_room:
+        Simulation._rebuild = cut_to_rows_in_use(comm)
     sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm)
     if args.grow_window and sim.decomp.window is not None:  # None: messages (oversubscribed)
         sim.decomp.window.free()
@@ -94,10 +120,12 @@ def main():
         (pr.j[:k] >= idle.start) & (pr.j[:k] < idle.stop))
     idle_walls = comm.allreduce(idle.stop - idle.start)
     idle_pairs = comm.allreduce(int(in_idle.sum()))
+    regrown = comm.allreduce(REGROWN[0])
     if comm.rank == 0:
         np.savez(args.out, **arrays, step=attrs["step"], migrated=migrated,
                  rebuilds=sim.n_rebuilds, exchanges=sim.decomp.n_exchanges,
-                 lists_checked=CHECKED[0], rebalanced=sim.decomp.n_rebalanced,
+                 lists_checked=CHECKED[0], regrown=regrown,
+                 rebalanced=sim.decomp.n_rebalanced,
                  idle_walls=idle_walls, idle_wall_pairs=idle_pairs,
                  shared_windows=sim.decomp.n_windows,
                  shared_exchanges=sim.decomp.n_shared_exchanges)
