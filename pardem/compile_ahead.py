@@ -2,12 +2,15 @@
 
 Every rank calls the same kernels, so with a cold numba cache every rank would compile all of
 them, one after another, in the same order. Before the first exchange, rank 0 compiles the
-migration (``parallel.exchange.exchange_rows``, with the list build it calls) while rank 1
-compiles the force loop and the ring contacts (``forces``); after a barrier each rank loads
-the other's from numba's disk cache when it first calls them. With a warm cache each
-``compile`` only loads. The signatures are those of the calls that follow (``numba.typeof`` of
-the same arguments; inside the step loop the switches are literals): a mismatch would cost
-only a second compile, which ``run_scripts/compile_times.py --detail`` shows per rank.
+migration (``parallel.exchange.exchange_rows``) while rank 1 compiles the two kernels that
+the migration calls last (its refresh plan and the list build, which rank 0 then finds in the
+cache), the force loop and the ring contacts (``forces``), and the step loop around them
+(``step.make_stepper``'s ``advance``, with the ghost refresh it calls); after a barrier each
+rank loads the other's from numba's disk cache when it first calls them. With a warm cache
+each ``compile`` only loads. The signatures are those of the calls that follow
+(``numba.typeof`` of the same arguments; inside the step loop the switches are literals; the
+step loop's refresh plan is an empty one of the same types): a mismatch would cost only a
+second compile, which ``tests/test_mpi.py`` checks for.
 """
 
 from __future__ import annotations
@@ -38,7 +41,9 @@ def compile_ahead(sim, history) -> None:
 
 def _groups(sim, history) -> list[list]:
     """Per rank, the kernels to compile and their signatures."""
-    from .parallel.exchange import exchange_rows  # loads libmpi: parallel runs only
+    from .neighbors import build_lists
+    from .parallel.exchange import _refresh_plan, exchange_rows  # loads libmpi: parallel only
+    from .parallel.halo import halo_buffers, make_halo
 
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
     exchange = sim.decomp.exchange_arguments(ps, pairs, sim.clock, exchange_counts(sim.clock),
@@ -48,9 +53,18 @@ def _groups(sim, history) -> list[list]:
     rotation, walls = types.literal(opts.rotation), types.literal(opts.walls)
     o = nb.typeof(opts.contact)
     state = (nb.typeof(ps), nb.typeof(pairs))
+    none = np.zeros(0, np.int64)
+    halo = make_halo(sim.decomp.comm, halo_buffers((none, none, np.zeros(1, np.int64),
+                                                    np.zeros(1, np.int64)), exchange[-1]), False)
+    lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False,
+                                                  (none, none, np.zeros((0, 2))), True))
+    positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
+    plan = (positions, nb.typeof(none), nb.typeof(np.zeros((1, 2))), types.int64, f8)
     return [
         [(exchange_rows, tuple(nb.typeof(a) for a in exchange))],
-        [(contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
+        [(_refresh_plan, plan), (build_lists, lists),
+         (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
                                    nb.typeof(np.zeros(1)), record)),
-         (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record))],
+         (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record)),
+         (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))],
     ]

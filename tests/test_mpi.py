@@ -5,6 +5,7 @@ Each test launches ``mpiexec`` (the one beside sys.executable) on scripts in tes
 3 and 4 ranks oversubscribe the 2 cores, which is fine for correctness (never for timings).
 """
 
+import json
 import os
 from pathlib import Path
 
@@ -133,6 +134,21 @@ def test_a_2_rank_warmup_leaves_nothing_for_a_2_rank_run_to_compile(tmp_path):
                    env={"NUMBA_DEBUG_CACHE": "1"})
     assert "[cache] data loaded" in done.stdout
     assert "[cache] data saved" not in done.stdout, done.stdout
+
+
+def test_kernels_compiled_ahead_have_the_signatures_of_their_calls(tmp_path):
+    """compile_ahead splits a 2-rank run's cold compile between the ranks by signatures made
+    from the arguments of the calls that follow: every rank then holds exactly one compiled
+    version of each of those kernels (a wrong signature would leave two on the rank that
+    compiled it ahead, and cost a second compile)."""
+    scene = fast_shear_scene(tmp_path)
+    done = run_mpi([str(MPI_DIR / "compile_ahead_check.py"), str(scene)], 2)
+    every = json.loads(done.stdout.strip().splitlines()[-1])
+    assert len(every) == 2 and {"exchange_rows", "contact_forces"} <= set(every[1]["versions"])
+    assert every[0]["ahead"] and every[1]["ahead"]
+    for rank, mine in enumerate(every):
+        assert all(mine["versions"][k] == 1 for k in mine["ahead"]), f"rank {rank}: {mine}"
+        assert all(n <= 1 for n in mine["versions"].values()), f"rank {rank}: {mine}"
 
 
 def test_pardem_run_on_2_ranks_writes_the_serial_snapshots(tmp_path):

@@ -89,7 +89,10 @@ def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, ha
     count, n_wall = -1, -1
     if written:
         clock.n_moving[0] = n_own + n_near
-        count, n_wall, _ = build_lists(ps, pairs, clock, prm, t, False, springs, plan.ring_walls)
+        # from_list False as a run-time bool (n_owned >= 0): a literal False would compile
+        # build_lists a second time, beside the version the local builds call from Python
+        count, n_wall, _ = build_lists(ps, pairs, clock, prm, t, n_owned < 0, springs,
+                                       plan.ring_walls)
     return err, received, (peer_at, need), (count, n_wall)
 
 
