@@ -111,7 +111,8 @@ def main(argv: list[str] | None = None) -> int:
         if root:  # the first run with a set of effects spends a minute in numba
             sys.stderr.write(f"pardem: {scene.info.name}: building the initial state and the "
                              "compiled kernels (compiled on the first run with this scene's set "
-                             "of effects, one to two minutes; loaded from the cache later)\n")
+                             "of effects, half a minute to two minutes; loaded from the cache "
+                             "later)\n")
             sys.stderr.flush()
         sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm,
                          overwrite=args.overwrite)
