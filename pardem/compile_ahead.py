@@ -43,7 +43,6 @@ def _groups(sim, history) -> list[list]:
     """Per rank, the kernels to compile and their signatures."""
     from .neighbors import build_lists
     from .parallel.exchange import _refresh_plan, exchange_rows  # loads libmpi: parallel only
-    from .parallel.halo import halo_buffers, make_halo
 
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
     exchange = sim.decomp.exchange_arguments(ps, pairs, sim.clock, exchange_counts(sim.clock),
@@ -54,8 +53,7 @@ def _groups(sim, history) -> list[list]:
     o = nb.typeof(opts.contact)
     state = (nb.typeof(ps), nb.typeof(pairs))
     none = np.zeros(0, np.int64)
-    halo = make_halo(sim.decomp.comm, halo_buffers((none, none, np.zeros(1, np.int64),
-                                                    np.zeros(1, np.int64)), exchange[-1]), False)
+    halo = sim.decomp.empty_halo()
     lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False,
                                                   (none, none, np.zeros((0, 2))), True))
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout

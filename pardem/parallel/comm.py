@@ -34,7 +34,8 @@ from ..state import row_columns, row_width
 from . import sectors as sec
 from .comm_rows import sorted_rows
 from .exchange import ExchangePlan, exchange_rows
-from .halo import GHOST_VALUES, HEADER, Halo, SharedWindow, handles_of, make_halo
+from .halo import (GHOST_VALUES, HEADER, Halo, SharedWindow, halo_buffers, handles_of,
+                   make_halo)
 from .serial import HIST_BINS, History, too_many_ranks
 
 REBALANCE_EVERY = 2  # exchanges between balance checks (counts drift slowly)
@@ -209,6 +210,14 @@ class Decomposition:
                             ring_walls)
         return (ps, pairs, clock, counts, plan, hist > 0 and history is None,
                 history if history is not None else NO_HISTORY, t, prm, self._handles)
+
+    def empty_halo(self) -> Halo:
+        """A refresh plan with no ghosts, of the same numba types as the real ones (what
+        ``compile_ahead`` compiles the step loop for before the first exchange)."""
+        none = np.zeros(0, np.int64)
+        start = np.zeros(1, np.int64)
+        return make_halo(self.comm, halo_buffers((none, none, start, start), self._handles),
+                         False)
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:
         """Values of an owned per-particle array for this rank's ghosts, in ghost order (output
