@@ -19,6 +19,7 @@ import numba as nb
 import numpy as np
 from numba.core import types
 
+from .contact.history import NO_HISTORY
 from .forces import contact_forces, ring_contacts
 from .rebuild import exchange_counts
 
@@ -52,12 +53,10 @@ def _groups(sim, history) -> list[list]:
     rotation, walls = types.literal(opts.rotation), types.literal(opts.walls)
     o = nb.typeof(opts.contact)
     state = (nb.typeof(ps), nb.typeof(pairs))
-    none = np.zeros(0, np.int64)
     halo = sim.decomp.empty_halo()
-    lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False,
-                                                  (none, none, np.zeros((0, 2))), True))
+    lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False, NO_HISTORY, True))
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
-    plan = (positions, nb.typeof(none), nb.typeof(np.zeros((1, 2))), types.int64, f8)
+    plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
     return [
         [(exchange_rows, tuple(nb.typeof(a) for a in exchange))],
         [(_refresh_plan, plan), (build_lists, lists),

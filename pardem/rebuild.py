@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from .contact.history import NO_HISTORY
 from .neighbors import build_lists
 from .state import new_pairs, new_particles, packed, row_width, unpack_particles
 from .walls import place_wall_disks
@@ -24,7 +25,7 @@ def rebuild(sim, history=None, rebalance: bool = True, exchange: bool = True) ->
         history, (count, n_wall) = migrate(sim, history, rebalance)
     from_list = sim.hist > 0 and history is None
     if history is None:
-        history = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
+        history = NO_HISTORY
     while not (0 <= count <= sim.pairs.i.size and 0 <= n_wall <= sim.pairs.wall.size):
         if count >= 0:  # a build overflowed the lists: grow them, keep the history read
             from_list = False
@@ -33,6 +34,14 @@ def rebuild(sim, history=None, rebalance: bool = True, exchange: bool = True) ->
         count, n_wall, history = build_lists(sim.ps, sim.pairs, sim.clock, sim.prm, sim.time,
                                              from_list, history, sim.options.walls)
     sim.n_rebuilds += 1
+
+
+def rebuild_on_request(sim) -> None:
+    """The build the step loop asks for (NEED_REBUILD): every wall disk placed at the current
+    time, then new lists, under MPI with an exchange if ``Decomposition.exchange_due``."""
+    place_idle_walls(sim)
+    n = int(sim.clock.n_local[0])
+    sim._rebuild(exchange=sim.decomp.exchange_due(sim.ps.x[:n]))
 
 
 def migrate(sim, history, rebalance: bool):

@@ -37,7 +37,7 @@ from .parallel import GHOST_MARGIN_SKINS, decomposition
 from .memory import check_memory
 from .placement import cell_rows, initial_configuration, rank_share
 from .neighbors import WALL_SKINS
-from .rebuild import place_idle_walls, rebuild
+from .rebuild import place_idle_walls, rebuild, rebuild_on_request
 from . import stop
 from .scene import Scene, SceneError, write_scene
 from .state import Params, new_clock, new_pairs
@@ -332,9 +332,7 @@ class Simulation(StateViews):
             t1 = time.perf_counter()
             self.timers["forces+integration"] += t1 - t0
             if status == NEED_REBUILD:  # every rank returns at the same step (global maxima)
-                place_idle_walls(self)  # every wall disk where it is now
-                n = int(self.clock.n_local[0])
-                self._rebuild(exchange=self.decomp.exchange_due(self.ps.x[:n]))
+                rebuild_on_request(self)
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
             elif status == BAD_PARTICLE:
                 message = self._bad_particle_message(bad) if bad >= 0 else None

@@ -11,7 +11,7 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from .rebuild import place_idle_walls
+from .rebuild import rebuild_on_request
 from .scene import Scene
 from .simulation import Simulation
 
@@ -32,6 +32,5 @@ def warm_up(scene: Scene, out_dir: str | Path, comm=None) -> Simulation:
     sim.run(end=4 * dt, progress=False)
     # four steps rarely need a neighbour build: one as the step loop asks for it (under MPI,
     # the test whether particles moved far enough to migrate compiles only here)
-    place_idle_walls(sim)
-    sim._rebuild(exchange=sim.decomp.exchange_due(sim.ps.x[:int(sim.clock.n_local[0])]))
+    rebuild_on_request(sim)
     return sim

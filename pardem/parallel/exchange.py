@@ -239,15 +239,17 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
         # column 0: gid; each sender's arrivals are an ascending run
         arr_gid = arrivals[:, 0].astype(np.int64)
         arr_order = run_order(arr_gid, n_arr)
+        at_kept, at_arr = merge_slots(ps.gid[kept], arr_gid, arr_order)
         if written:  # the kept rows stay in ps; only those after a migrant move
-            at_kept, at_arr = merge_slots(ps.gid[kept], arr_gid, arr_order)
             move_rows(ps, kept, at_kept, arrivals, arr_order, at_arr)
         else:  # for the caller, who stores them in larger arrays
+            rows = np.empty((kept.size, width))
+            pack_particles(ps, kept, rows)
             own = np.empty((n_own, width))
-            pack_particles(ps, kept, own)
+            for k in range(kept.size):
+                copy_values(own[at_kept[k]], rows[k])
             for r in range(n_arr):
-                copy_values(own[kept.size + r], arrivals[r])
-            own = own[run_order(own[:, 0].astype(np.int64), n_own)]
+                copy_values(own[at_arr[r]], arrivals[arr_order[r]])
     if n_sp:
         lo, hi, xi = merge_history(lo, hi, xi, springs)
 
