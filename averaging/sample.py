@@ -53,6 +53,14 @@ class Sample(NamedTuple):
         return self.start, self.normal, self.overlap, self.force, self.tangential
 
 
+def empty_sample() -> Sample:
+    """A sample without particles or contacts, with the array types of every other (what
+    ``pardem.compile_ahead`` compiles the ring sums for)."""
+    rows, pairs = np.zeros(0), np.zeros((0, 2))
+    return Sample(pairs, pairs, rows, rows, rows, np.zeros(1, np.int64), pairs, rows, pairs,
+                  pairs, 0.0)
+
+
 def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, tangential,
                   inner_torque: float) -> Sample:
     """Build a Sample from per-contact rows already oriented towards ``owner`` (particle index)."""

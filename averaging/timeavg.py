@@ -48,12 +48,19 @@ class RingAverager:
 
     def add(self, s: Sample, time: float) -> None:
         """Add one sample (this rank's particles; the totals are reduced over ranks)."""
-        local = np.zeros((self.n_rings, N_COLUMNS))
-        accumulate(s.particles, s.contacts, (self.height, self.r_in, self.dr, self.kind), local)
+        arguments = self.sum_arguments(s)
+        accumulate(*arguments)
+        local = arguments[-1]
         sums, scalars = reduce_sums(local, np.array([s.inner_torque]), self.reducer)
         self.samples.append(sums)
         self.torques.append(float(scalars[0]))
         self.times.append(time)
+
+    def sum_arguments(self, s: Sample) -> tuple:
+        """``sums.accumulate``'s arguments for sample ``s``: its particles and contacts, the
+        rings, and zeroed ring sums [n_rings, N_COLUMNS] (this rank's, to be reduced)."""
+        return (s.particles, s.contacts, (self.height, self.r_in, self.dr, self.kind),
+                np.zeros((self.n_rings, N_COLUMNS)))
 
     @property
     def ring_centres(self) -> np.ndarray:

@@ -6,7 +6,11 @@ migration (``parallel.exchange.exchange_rows``) while rank 1 compiles the two ke
 the migration calls last (its refresh plan and the list build, which rank 0 then finds in the
 cache), the force loop and the ring contacts (``forces``), and the step loop around them
 (``step.make_stepper``'s ``advance``, with the ghost refresh it calls); after a barrier each
-rank loads the other's from numba's disk cache when it first calls them. With a warm cache
+rank loads the other's from numba's disk cache when it first calls them. The small kernels
+that a run would otherwise compile after its first step, on every rank at once, are shared the
+same way: the ring sums of in-situ averaging and the touching-pair test of the contact tables
+on rank 0; the progress line's diagnostics, the ring-contact test and the exchange test
+(``sectors.largest_move``) on rank 1. With a warm cache
 each ``compile`` only loads. The signatures are those of the calls that follow
 (``numba.typeof`` of the same arguments; inside the step loop the switches are literals; the
 step loop's refresh plan is an empty one of the same types): a mismatch would cost only a
@@ -57,11 +61,35 @@ def _groups(sim, history) -> list[list]:
     lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False, NO_HISTORY, True))
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
     plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
+    n = nb.typeof(0)
+    first, second = _first_step(sim, state, n)
     return [
-        [(exchange_rows, tuple(nb.typeof(a) for a in exchange))],
-        [(_refresh_plan, plan), (build_lists, lists),
+        [(exchange_rows, tuple(nb.typeof(a) for a in exchange))] + first,
+        second + [(_refresh_plan, plan), (build_lists, lists),
          (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
                                    nb.typeof(np.zeros(1)), record)),
          (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record)),
          (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))],
     ]
+
+
+def _first_step(sim, state, n) -> tuple[list, list]:
+    """The kernels of the output, averaging and exchange test (compiled lazily otherwise, all
+    ranks at once): a share for rank 0 and one for rank 1."""
+    from . import diagnostics as diag
+    from .parallel.sectors import largest_move
+
+    f8, prm = types.float64, nb.typeof(sim.prm)
+    positions = nb.typeof(sim.ps.x[:1])
+    first = [(diag.touching_pairs, state + (n,))]
+    if sim.rings is not None:
+        from averaging.sample import empty_sample
+        from averaging.sums import accumulate
+
+        sums = sim.rings.sum_arguments(empty_sample())
+        first.append((accumulate, tuple(nb.typeof(a) for a in sums)))
+    second = [(diag.kinetic_energy, (state[0], n)), (diag.max_overlap_ratio, state + (prm, f8)),
+              (largest_move, (positions, positions))]
+    if sim.options.walls:
+        second.append((diag.touching_rings, state + (prm, f8)))
+    return first, second

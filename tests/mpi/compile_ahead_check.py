@@ -1,4 +1,5 @@
-"""Run ``pardem.warmup.warm_up`` of a scene on the ranks of COMM_WORLD, then print (rank 0, one
+"""Run ``pardem.warmup.warm_up`` of a scene on the ranks of COMM_WORLD and the progress line's
+diagnostics, then print (rank 0, one
 JSON line) per rank how many compiled versions it holds of every kernel that ``compile_ahead``
 compiles, and which of them it compiled ahead. A kernel compiled ahead with the signature of
 the calls that follow has one version on its rank; a kernel that other kernels call (and that
@@ -31,7 +32,8 @@ def recording(sim, history):
 
 compile_ahead._groups = recording
 with tempfile.TemporaryDirectory() as tmp:
-    warm_up(load_scene(sys.argv[1]), tmp, comm)
+    sim = warm_up(load_scene(sys.argv[1]), tmp, comm)
+    sim.kinetic_energy(), sim.max_overlap()  # what the progress line calls (collective)
 mine = {"versions": {k.py_func.__qualname__: len(k.overloads) for k in seen},
         "ahead": [k.py_func.__qualname__ for k in ahead]}
 every = comm.gather(mine, root=0)
