@@ -21,7 +21,8 @@ BYTES_PER_PARTICLE = 600
 """Peak resident bytes per particle of the whole cell, per rank, at set-up and in the first
 steps, above the imports (124 MB): measured for the scaled couette_B at 300k and 1M disks 475
 and 357 B on 1 rank, 471 and 408 B per rank on 2 (``max RSS``; the placement's lattice and the
-first exchange's copies are the peak), rounded up for the neighbour lists of a dense packing."""
+first exchange's copies were the peak; the first exchange now writes in place: ~310 B per rank
+on 2 at 1M), rounded up for the neighbour lists of a dense packing."""
 
 BASE_BYTES = 200e6
 """The interpreter, numpy, numba and the loaded kernels (measured 110 MB), rounded up."""

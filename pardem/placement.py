@@ -18,7 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .scene import Scene, SceneError
-from .state import (FREE, INNER_WALL, OUTER_WALL, Particles, new_particles, packed,
+from .state import (FREE, INNER_WALL, OUTER_WALL, ROW_ROOM, Particles, new_particles, packed,
                     unpack_particles)
 from .walls import wall_disk_angles, wall_layout
 
@@ -121,15 +121,17 @@ def _triangular(r_lo: float, r_hi: float, s: float) -> np.ndarray:
     return np.column_stack([px[keep], py[keep]])
 
 
-def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None) -> Particles:
+def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None,
+              capacity: int = 0) -> Particles:
     """The particle arrays of the rows ``idx`` (gids, in that order; None: the whole cell in
-    gid order), with ``hist`` history columns for the ring contacts (0: none). A rank builds
-    only its own share and the wall disks: whole-cell arrays on every rank were most of a
-    large scene's set-up memory."""
+    gid order) in arrays of ``capacity`` rows (at least the rows), with ``hist`` history
+    columns for the ring contacts (0: none). A rank builds only its own share and the wall
+    disks: whole-cell arrays on every rank were most of a large scene's set-up memory."""
     if idx is None:
         idx = np.arange(init.radius.size)
     n = idx.size
-    ps = new_particles(n, hist)
+    whole = new_particles(max(n, capacity), hist)
+    ps = Particles(*(a[:n] for a in whole))
     ps.gid[:] = idx
     ps.kind[:] = init.kind[idx]
     ps.x[:] = init.x[idx]
@@ -141,20 +143,22 @@ def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None) -> Partic
     ps.inv_inertia[:] = 2.0 / (ps.mass * ps.radius**2)  # I = m d^2 / 8
     ps.phi0[:] = init.phi0[idx]
     ps.e0[:] = np.column_stack([np.cos(ps.phi0), np.sin(ps.phi0)])
-    return ps
+    return whole
 
 
 def rank_share(init: Initial, whole: Particles | None, decomp, hist: int):
-    """This rank's rows, [its sector's free particles | every wall disk] in gid order, and how
-    many are free: the sectors are cut first (``decomp.place_sectors``, from every free
-    particle's position). From ``whole`` (the whole cell's arrays, a restart's) if given, else
-    built from ``init`` for these rows alone."""
+    """This rank's rows, [its sector's free particles | every wall disk] in gid order, how many
+    are free and how many rows there are: the sectors are cut first (``decomp.place_sectors``,
+    from every free particle's position). From ``whole`` (the whole cell's arrays, a
+    restart's) if given, else built from ``init`` for these rows alone. Under MPI the arrays
+    have room (``ROW_ROOM``) for the ghosts and arrivals of the first exchange."""
     x_free = (whole if whole is not None else init).x[:init.n_free]
     decomp.place_sectors(x_free)
     mine = np.flatnonzero(decomp.sectors.owner(x_free) == decomp.rank)
     idx = np.concatenate([mine, np.arange(init.n_free, init.radius.size)])
+    capacity = int(ROW_ROOM * idx.size) if decomp.parallel else idx.size
     if whole is None:
-        return cell_rows(init, hist, idx), mine.size
-    ps = new_particles(idx.size, hist)
+        return cell_rows(init, hist, idx, capacity), mine.size, idx.size
+    ps = new_particles(capacity, hist)
     unpack_particles(packed(whole, idx, hist), ps, 0)
-    return ps, mine.size
+    return ps, mine.size, idx.size

@@ -12,7 +12,8 @@ import numpy as np
 
 from .contact.history import NO_HISTORY
 from .neighbors import build_lists
-from .state import new_pairs, new_particles, packed, row_width, unpack_particles
+from .state import (ROW_ROOM, new_pairs, new_particles, packed, row_width,
+                    unpack_particles)
 from .walls import place_wall_disks
 
 
@@ -59,7 +60,7 @@ def migrate(sim, history, rebalance: bool):
     if not written:  # ps too small: store the rows in larger arrays
         rows = np.concatenate([own, walls, ghosts] if moved else
                               [packed(ps, np.arange(n_local), hist), ghosts])
-        sim.ps = ps = new_particles(int(1.25 * rows.shape[0]), hist)
+        sim.ps = ps = new_particles(int(ROW_ROOM * rows.shape[0]), hist)
         unpack_particles(rows, ps, 0)
         order_walls(sim, idle)  # the wall block keeps its order: the idle ones are last
     sim.decomp.exchanged(sim.ps.x[:int(sim.clock.n_local[0])])  # idle walls placed at t

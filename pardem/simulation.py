@@ -130,10 +130,9 @@ class Simulation(StateViews):
                 self.folder_lock.release()
             if removed:
                 self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
-        self.ps, n_owned = rank_share(init, ps, self.decomp, self.hist)
+        self.ps, n_owned, n = rank_share(init, ps, self.decomp, self.hist)
         wall_radius = float(init.radius[init.n_free:].max(initial=0.0))
         del ps, init  # the whole cell's arrays: not kept
-        n = self.ps.gid.size
         self.clock.n_owned[0] = n_owned
         self.clock.n_local[0] = n
         self.clock.n_moving[0] = n  # every wall disk is at time t: none idle yet

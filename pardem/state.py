@@ -145,6 +145,11 @@ class Clock(NamedTuple):
     step_ref: np.ndarray
 
 
+ROW_ROOM = 1.25
+"""Under MPI a rank's particle arrays hold this many times its rows, so that an exchange
+(arrivals, ghosts) usually writes into them in place instead of into new, larger arrays."""
+
+
 def new_particles(n: int, hist: int) -> Particles:
     """Zeroed particle arrays for n particles with ``hist`` history columns (0: none)."""
     z = np.zeros
