@@ -35,10 +35,10 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
       gather   copy each pair's inputs into the work rows (unsigned indices: numba then adds
                no negative-index wrap-around, which spilled registers here);
       law      the contact law on the work rows only, at unit stride, so LLVM vectorises it
-               without alias checks; the rare branches (Coulomb cap, partial damping window)
-               are deferred;
-      redo     the few deferred pairs (~4 %: sliding or just touching), scalar, with the full
-               law: the same bits as computing every pair with it;
+               without alias checks; the Coulomb cap with selects (sliding contacts are
+               common in steady shear), the rare partial damping window deferred;
+      redo     the few deferred pairs (just touching), scalar, with the full law: the same
+               bits as computing every pair with it;
       scatter  forces and torques added in list order. Pairs come sorted by their lower
                particle, so its sums stay in registers along its run of pairs: the same
                additions in the same order as f[i] += ... pair by pair, without a chain of

@@ -58,18 +58,17 @@ def spring_increment(xix, xiy, nx, ny, vx, vy, vn, dt):
 
 
 @nb.njit(**INLINE)
-def coulomb_limit(ftx, fty, fn, mu, defer):
+def coulomb_limit(ftx, fty, fn, mu):
     """Coulomb's limit (eq. 1.4): the trial tangential force (N) scaled down to mu |f_n| if it
-    exceeds it. Returns ``(ftx, fty, sliding, redo)``; with ``defer`` an exceeding force comes
-    back unscaled with ``redo`` (the scaling needs a square root and a division)."""
+    exceeds it. Returns ``(ftx, fty, sliding)``. Selects, not branches: every lane of the
+    batched pair loop computes the scale (a square root and a division), so that the loop stays
+    vectorised however many contacts slide (in steady shear a third of them, each of which a
+    deferred cap computed a second time, scalar)."""
     cl_fmax = mu * abs(fn)
     cl_ft2 = ftx * ftx + fty * fty
-    if cl_ft2 > cl_fmax * cl_fmax:
-        if defer:
-            return ftx, fty, False, True
-        cl_cap = cl_fmax / math.sqrt(cl_ft2)
-        return ftx * cl_cap, fty * cl_cap, True, False
-    return ftx, fty, False, False
+    cl_sliding = cl_ft2 > cl_fmax * cl_fmax
+    cl_cap = cl_fmax / math.sqrt(cl_ft2)  # inf or nan where f_t = 0: not selected
+    return (ftx * cl_cap if cl_sliding else ftx), (fty * cl_cap if cl_sliding else fty), cl_sliding
 
 
 @nb.njit(**INLINE)

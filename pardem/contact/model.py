@@ -146,8 +146,9 @@ def contact_law(n, delta, v, spring, xr, a_red, w, law, o, defer):
     damping) and contact-point velocity v = (vx, vy) (m/s). ``spring`` = (xix, xiy) and xr
     (the rolling spring) are the histories before this step; the returned ones are updated.
     a_red (m): the reduced radius a'; w = (w_i, w_j): the spins. f_r (N) is the rolling
-    resistance (a' f_r is its torque on i). ``flag``: sliding, or (with ``defer``) a
-    deferred branch was needed and the contact must be redone without ``defer``."""
+    resistance (a' f_r is its torque on i). ``flag``: sliding; with ``defer``, whether a
+    deferred branch was needed and the contact must be redone without ``defer`` (a sliding
+    contact is exact either way)."""
     cl_nx, cl_ny = n
     cl_vx, cl_vy = v
     cl_xix, cl_xiy = spring
@@ -174,22 +175,22 @@ def contact_law(n, delta, v, spring, xr, a_red, w, law, o, defer):
             cl_vty = cl_vy - cl_vn * cl_ny
             cl_ftx -= law.gamma_t * cl_vtx
             cl_fty -= law.gamma_t * cl_vty
-        cl_ftx, cl_fty, cl_sliding, cl_again = coulomb_limit(cl_ftx, cl_fty, cl_fn, law.mu,
-                                                             defer)
-        cl_redo = cl_redo or cl_again
-        if cl_sliding:  # the spring holds what the cap allows
-            if o.tangential_damping:
-                cl_xix = -(cl_ftx + law.gamma_t * cl_vtx) / law.k_t
-                cl_xiy = -(cl_fty + law.gamma_t * cl_vty) / law.k_t
-            else:
-                cl_xix = -cl_ftx / law.k_t
-                cl_xiy = -cl_fty / law.k_t
+        cl_ftx, cl_fty, cl_sliding = coulomb_limit(cl_ftx, cl_fty, cl_fn, law.mu)
+        # sliding: the spring holds what the cap allows (selects, as in coulomb_limit)
+        if o.tangential_damping:
+            cl_sx = -(cl_ftx + law.gamma_t * cl_vtx) / law.k_t
+            cl_sy = -(cl_fty + law.gamma_t * cl_vty) / law.k_t
+        else:
+            cl_sx = -cl_ftx / law.k_t
+            cl_sy = -cl_fty / law.k_t
+        cl_xix = cl_sx if cl_sliding else cl_xix
+        cl_xiy = cl_sy if cl_sliding else cl_xiy
     if o.rolling:
         cl_wi, cl_wj = w
         cl_xr = cl_xr + a_red * (cl_wi - cl_wj) * law.dt
         cl_fr, cl_rcap = rolling_limit(-law.k_r * cl_xr, cl_fn, law.mu_r)
         cl_xr = -cl_fr / law.k_r if cl_rcap else cl_xr
-    return cl_fn, cl_ftx, cl_fty, cl_fr, cl_xix, cl_xiy, cl_xr, cl_sliding or cl_redo
+    return cl_fn, cl_ftx, cl_fty, cl_fr, cl_xix, cl_xiy, cl_xr, cl_redo if defer else cl_sliding
 
 
 @nb.njit(**INLINE)
