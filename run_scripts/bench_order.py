@@ -79,18 +79,26 @@ def stage_times(sim) -> dict[str, float]:
     return out
 
 
+def parse_states(doc: str, rounds: int, option: str, default: int):
+    """The command line of a benchmark over restored states (also bench_stages.py): SCENE
+    CHECKPOINT pairs, ``--rounds`` and one more integer option. Returns ``(args, [(scene,
+    checkpoint), ...])``."""
+    ap = argparse.ArgumentParser(description=doc.splitlines()[0])
+    ap.add_argument("pairs", nargs="+", help="SCENE.toml CHECKPOINT.h5, repeated")
+    ap.add_argument("--rounds", type=int, default=rounds)
+    ap.add_argument(option, type=int, default=default)
+    args = ap.parse_args()
+    if len(args.pairs) % 2:
+        ap.error("give a checkpoint after each scene")
+    return args, list(zip(args.pairs[::2], args.pairs[1::2]))
+
+
 def main() -> None:
     from pardem.scene import load_scene
     from pardem.simulation import Simulation
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("pairs", nargs="+", help="SCENE.toml CHECKPOINT.h5, repeated")
-    ap.add_argument("--rounds", type=int, default=7)
-    ap.add_argument("--steps", type=int, default=200)
-    args = ap.parse_args()
-    if len(args.pairs) % 2:
-        raise SystemExit("bench_order.py: give a checkpoint after each scene")
-    for path, ckpt in zip(args.pairs[::2], args.pairs[1::2]):
+    args, states = parse_states(__doc__, 7, "--steps", 200)
+    for path, ckpt in states:
         scene = load_scene(path)
         sims = {"gid order": Simulation(scene, restart=ckpt),
                 "Morton": Simulation(scene, restart=ckpt)}

@@ -16,7 +16,6 @@ as a whole adds (each stage finding its arrays evicted by the others).
 
 from __future__ import annotations
 
-import argparse
 import os
 import statistics
 import time
@@ -26,6 +25,7 @@ os.environ.setdefault("OMP_NUM_THREADS", "1")
 
 import numba as nb  # noqa: E402
 import numpy as np  # noqa: E402
+from bench_order import parse_states  # noqa: E402
 
 from pardem.contact.model import work_size  # noqa: E402
 from pardem.forces import contact_forces  # noqa: E402
@@ -84,15 +84,8 @@ def main() -> None:
     from pardem.scene import load_scene
     from pardem.simulation import Simulation
 
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("pairs", nargs="+", help="SCENE.toml CHECKPOINT.h5, repeated")
-    ap.add_argument("--rounds", type=int, default=5)
-    ap.add_argument("--reps", type=int, default=100)
-    args = ap.parse_args()
-    if len(args.pairs) % 2:
-        raise SystemExit("bench_stages.py: give a checkpoint after each scene")
-    sims = [Simulation(load_scene(s), restart=c)
-            for s, c in zip(args.pairs[::2], args.pairs[1::2])]
+    args, states = parse_states(__doc__, 5, "--reps", 100)
+    sims = [Simulation(load_scene(s), restart=c) for s, c in states]
     times: list[dict] = [{} for _ in sims]
     for _ in range(args.rounds):
         for sim, got in zip(sims, times):
