@@ -61,8 +61,7 @@ def _groups(sim, history) -> list[list]:
     lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False, NO_HISTORY, True))
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
     plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
-    n = nb.typeof(0)
-    first, second = _first_step(sim, state, n)
+    first, second = _first_step(sim, state, f8)
     return [
         [(exchange_rows, tuple(nb.typeof(a) for a in exchange))] + first,
         second + [(_refresh_plan, plan), (build_lists, lists),
@@ -73,14 +72,14 @@ def _groups(sim, history) -> list[list]:
     ]
 
 
-def _first_step(sim, state, n) -> tuple[list, list]:
+def _first_step(sim, state, f8) -> tuple[list, list]:
     """The kernels of the output, averaging and exchange test (compiled lazily otherwise, all
     ranks at once): a share for rank 0 and one for rank 1."""
     from . import diagnostics as diag
     from .parallel.sectors import largest_move
 
-    f8, prm = types.float64, nb.typeof(sim.prm)
-    positions = nb.typeof(sim.ps.x[:1])
+    n, prm = types.int64, nb.typeof(sim.prm)
+    positions = nb.typeof(sim.ps.x[:1])  # the contiguous leading rows, as exchange_due passes
     first = [(diag.touching_pairs, state + (n,))]
     if sim.rings is not None:
         from averaging.sample import empty_sample

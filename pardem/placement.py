@@ -130,8 +130,8 @@ def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None,
     if idx is None:
         idx = np.arange(init.radius.size)
     n = idx.size
-    whole = new_particles(max(n, capacity), hist)
-    ps = Particles(*(a[:n] for a in whole))
+    arrays = new_particles(max(n, capacity), hist)
+    ps = Particles(*(a[:n] for a in arrays))
     ps.gid[:] = idx
     ps.kind[:] = init.kind[idx]
     ps.x[:] = init.x[idx]
@@ -143,7 +143,7 @@ def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None,
     ps.inv_inertia[:] = 2.0 / (ps.mass * ps.radius**2)  # I = m d^2 / 8
     ps.phi0[:] = init.phi0[idx]
     ps.e0[:] = np.column_stack([np.cos(ps.phi0), np.sin(ps.phi0)])
-    return whole
+    return arrays
 
 
 def rank_share(init: Initial, whole: Particles | None, decomp, hist: int):
