@@ -43,6 +43,10 @@ def main(argv: list[str] | None = None) -> int:
                      help="replace the run in the output folder (refused otherwise, except a "
                           "restart of the same scene, which continues it)")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    run.add_argument("--cut", default="auto",
+                     help="how the annulus is cut among MPI ranks: 'auto' (the cut with the "
+                          "fewest ghosts per rank), 'sectors', or RINGSxSECTORS such as 2x4; "
+                          "results are the same bits whatever the cut")
     warm = sub.add_parser("warmup", help="compile (and cache) the kernels of scenes' sets of "
                           "effects now, e.g. before a batch job, so that their runs start at once; under "
                           "mpiexec -n P: what a P-rank run needs")
@@ -115,7 +119,7 @@ def main(argv: list[str] | None = None) -> int:
                              "later)\n")
             sys.stderr.flush()
         sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm,
-                         overwrite=args.overwrite)
+                         overwrite=args.overwrite, cut=args.cut)
         if root:
             sys.stderr.write(
                 f"pardem: {scene.info.name}: {sim.n_free} particles, dt = {sim.dt:.4g} s, "

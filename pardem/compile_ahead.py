@@ -10,7 +10,7 @@ rank loads the other's from numba's disk cache when it first calls them. The sma
 that a run would otherwise compile after its first step, on every rank at once, are shared the
 same way: the ring sums of in-situ averaging and the touching-pair test of the contact tables
 on rank 0; the progress line's diagnostics, the ring-contact test and the exchange test
-(``sectors.largest_move``) on rank 1. With a warm cache
+(``cut.largest_move``) on rank 1. With a warm cache
 each ``compile`` only loads. The signatures are those of the calls that follow
 (``numba.typeof`` of the same arguments; inside the step loop the switches are literals; the
 step loop's refresh plan is an empty one of the same types): a mismatch would cost only a
@@ -76,7 +76,7 @@ def _first_step(sim, state, f8) -> tuple[list, list]:
     """The kernels of the output, averaging and exchange test (compiled lazily otherwise, all
     ranks at once): a share for rank 0 and one for rank 1."""
     from . import diagnostics as diag
-    from .parallel.sectors import largest_move
+    from .parallel.cut import largest_move
 
     n, prm = types.int64, nb.typeof(sim.prm)
     positions = nb.typeof(sim.ps.x[:1])  # the contiguous leading rows, as exchange_due passes

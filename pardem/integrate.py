@@ -110,15 +110,12 @@ def drift(ps, clock, prm, opts, scratch):
     if opts.walls:
         t = clock.step[0] * dt
         settled = outer_ring_settled(t, dt, prm.rings)
-        place_wall_disks(ps, n_owned, clock.n_moving[0], t, prm.rings, settled)
+        place_wall_disks(ps, n_owned, clock.n_moving[0], t, prm.rings, settled)  # with v_pred
         for i in range(n_owned, clock.n_moving[0]):
             # settled outer disks: at rest at their final radius; whatever they moved since the
             # last build is in ring_move below
             if settled and ps.kind[i] == OUTER_WALL:
                 continue
-            vp[2 * i] = v[2 * i]  # prescribed: exact
-            vp[2 * i + 1] = v[2 * i + 1]
-            ps.w_pred[i] = ps.omega[i]
             max_v2 = max(max_v2, v[2 * i] ** 2 + v[2 * i + 1] ** 2)
         ring_move = abs(outer_radius(t, prm.rings)[0] - clock.r_out_ref[0])
     return bad, math.sqrt(max_d2) + ring_move, max_v2

@@ -148,13 +148,13 @@ def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None,
 
 def rank_share(init: Initial, whole: Particles | None, decomp, hist: int):
     """This rank's rows, [its sector's free particles | every wall disk] in gid order, how many
-    are free and how many rows there are: the sectors are cut first (``decomp.place_sectors``,
+    are free and how many rows there are: the annulus is cut first (``decomp.place_cut``,
     from every free particle's position). From ``whole`` (the whole cell's arrays, a
     restart's) if given, else built from ``init`` for these rows alone. Under MPI the arrays
     have room (``ROW_ROOM``) for the ghosts and arrivals of the first exchange."""
     x_free = (whole if whole is not None else init).x[:init.n_free]
-    decomp.place_sectors(x_free)
-    mine = np.flatnonzero(decomp.sectors.owner(x_free) == decomp.rank)
+    decomp.place_cut(x_free)
+    mine = np.flatnonzero(decomp.cut.owner(x_free) == decomp.rank)
     idx = np.concatenate([mine, np.arange(init.n_free, init.radius.size)])
     capacity = int(ROW_ROOM * idx.size) if decomp.parallel else idx.size
     if whole is None:

@@ -82,7 +82,7 @@ def order_walls(sim, idle: int) -> None:
 
     clock = sim.clock
     n_owned, n_local = int(clock.n_owned[0]), int(clock.n_local[0])
-    plan = ExchangePlan(sim.decomp.sectors.edges, sim.decomp.rank, 0.0,
+    plan = ExchangePlan(sim.decomp.cut.radii, sim.decomp.cut.edges, sim.decomp.rank, 0.0,
                         sim.wall_margin, row_width(sim.hist), 0, False, False)
     n_near = arrange_walls(sim.ps, n_owned, n_local - idle, n_local, sim.time, sim.prm, plan)
     clock.n_moving[0] = n_owned + n_near

@@ -65,8 +65,10 @@ def tracks_eta(scene: Scene, writes_output: bool) -> bool:
 
 class Simulation(StateViews):
     """One scene's state and run loop: ``Simulation(scene, out_dir=None, restart=None,
-    comm=None, overwrite=False)``, ``run(end=None, progress=True)``, ``advance_steps(n)``.
-    ``out_dir`` must not hold another run unless ``overwrite`` (output/folder.py).
+    comm=None, overwrite=False, cut="auto")``, ``run(end=None, progress=True)``,
+    ``advance_steps(n)``. ``out_dir`` must not hold another run unless ``overwrite``
+    (output/folder.py). ``cut``: how the annulus is cut among the ranks ("auto": the cut with
+    the fewest ghosts; "sectors"; "RxA": R rings of A sectors); results do not depend on it.
 
     Public state: ``time`` (s), ``step``, ``dt`` (s), ``n_free``, ``timers`` (s per stage),
     ``n_rebuilds``, ``rings`` (the in-situ RingAverager after a run with [averaging]).
@@ -78,7 +80,8 @@ class Simulation(StateViews):
     """
 
     def __init__(self, scene: Scene, out_dir: str | Path | None = None,
-                 restart: str | Path | None = None, comm=None, overwrite: bool = False):
+                 restart: str | Path | None = None, comm=None, overwrite: bool = False,
+                 cut: str = "auto"):
         self.scene = scene
         self.out_dir = Path(out_dir) if out_dir is not None else None
         self.dt = resolve_dt(scene)
@@ -107,7 +110,7 @@ class Simulation(StateViews):
         self._free_radii = init.radius[:init.n_free].copy()
         self.decomp = decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
                                     g.inner_radius if g else 0.0,
-                                    margin=GHOST_MARGIN_SKINS * skin)
+                                    margin=GHOST_MARGIN_SKINS * skin, cut=cut)
         # a restart reads the whole cell (every rank gets the checkpoint's arrays); a fresh
         # start builds only this rank's rows, below
         ps = cell_rows(init, self.hist) if restart is not None else None

@@ -66,7 +66,10 @@ def outer_ring_settled(t, dt, rings):
 @nb.njit(**JIT)
 def place_wall_disks(ps, first, last, t, rings, settled):
     """Set position, velocity and spin of wall disks ps[first:last] at time t (an exact function
-    of t and the disk's unit vector e0, so every rank and every restart gets the same bits).
+    of t and the disk's unit vector e0, so every rank and every restart gets the same bits),
+    and their predicted velocity and spin, which the forces read: prescribed, they are exact.
+    Under MPI a rank places the disks far from its domain only at exchanges; one that comes
+    near after a re-cut is touched at once, so its prediction must be current too.
     ``settled`` (outer_ring_settled): skip the outer ring's disks, which would not change."""
     r_o, r_o_dot = outer_radius(t, rings)
     c, s = math.cos(rings.omega_in * t), math.sin(rings.omega_in * t)
@@ -81,12 +84,18 @@ def place_wall_disks(ps, first, last, t, rings, settled):
             ps.v[k, 1] = rings.omega_in * rings.r_in * ux
             ps.omega[k] = rings.omega_in  # glued: turns with the ring
             ps.theta[k] = rings.omega_in * t
+            ps.w_pred[k] = rings.omega_in
         elif not settled:
             ps.x[k, 0] = r_o * ex
             ps.x[k, 1] = r_o * ey
             ps.v[k, 0] = r_o_dot * ex
             ps.v[k, 1] = r_o_dot * ey
             ps.omega[k] = 0.0
+            ps.w_pred[k] = 0.0
+        else:
+            continue
+        ps.v_pred[k, 0] = ps.v[k, 0]
+        ps.v_pred[k, 1] = ps.v[k, 1]
 
 
 @nb.njit(**INLINE)

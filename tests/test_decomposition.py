@@ -1,12 +1,13 @@
-"""Decomposition helpers without MPI: sector ownership and distance against direct geometry, and
-the packed rows that carry particles between ranks."""
+"""Decomposition helpers without MPI: ownership of sectors and rings of sectors and the distance
+to them against direct geometry, the choice of the cut, and the packed rows that carry particles
+between ranks."""
 
 import math
 
 import numpy as np
 import pytest
 
-from pardem.parallel import sectors
+from pardem.parallel import choice, cut
 from pardem.sorted_runs import merge_slots
 from pardem.state import (FREE, move_rows, new_particles, packed, particle_fields, row_columns,
                           row_width, unpack_particles)
@@ -29,16 +30,17 @@ def wedge_of(angle, edges):
 @pytest.mark.parametrize("name", EDGE_SETS)
 def test_owner_is_the_wedge_holding_the_point(name):
     cuts = EDGE_SETS[name]
-    sec = sectors.Sectors(np.array(cuts + [cuts[0] + 2 * math.pi]))
+    sec = cut.sectors(np.array(cuts + [cuts[0] + 2 * math.pi]))
+    edges = sec.edges[0]
     rng = np.random.default_rng(3)
     phi = rng.uniform(-math.pi, math.pi, 4000)
     r = rng.uniform(0.01, 0.2, phi.size)
     x = np.column_stack([r * np.cos(phi), r * np.sin(phi)])
     # points within 1e-9 rad of an edge may go either way (rounding); leave them out
-    gap = np.min(np.abs((phi[:, None] - sec.edges[None, :] + math.pi) % (2 * math.pi) - math.pi),
+    gap = np.min(np.abs((phi[:, None] - edges[None, :] + math.pi) % (2 * math.pi) - math.pi),
                  axis=1)
     x, phi = x[gap > 1e-9], phi[gap > 1e-9]
-    expected = np.array([wedge_of(math.atan2(p[1], p[0]), sec.edges)[0] for p in x])
+    expected = np.array([wedge_of(math.atan2(p[1], p[0]), edges)[0] for p in x])
     for guess in range(sec.count):  # the fast test of the guessed wedge, then the fallback
         np.testing.assert_array_equal(sec.owner(x, guess), expected)
     assert set(expected) == set(range(sec.count))
@@ -47,8 +49,8 @@ def test_owner_is_the_wedge_holding_the_point(name):
 @pytest.mark.parametrize("name", EDGE_SETS)
 def test_distance_is_to_the_nearest_boundary_ray(name):
     cuts = EDGE_SETS[name]
-    sec = sectors.Sectors(np.array(cuts + [cuts[0] + 2 * math.pi]))
-    x = np.random.default_rng(4).uniform(-0.2, 0.2, (3000, 2))
+    sec = cut.sectors(np.array(cuts + [cuts[0] + 2 * math.pi]))
+    points = np.random.default_rng(4).uniform(-0.2, 0.2, (3000, 2))
 
     def ray(angle):  # direct: distance to the nearest point t e, t >= 0
         e = np.array([math.cos(angle), math.sin(angle)])
@@ -56,8 +58,135 @@ def test_distance_is_to_the_nearest_boundary_ray(name):
         return np.linalg.norm(x - t[:, None] * e, axis=1)
 
     for rank in range(sec.count):
-        expected = np.minimum(ray(sec.edges[rank]), ray(sec.edges[rank + 1]))
+        x = points[sec.owner(points) != rank]  # the distance of a point outside the domain
+        expected = np.minimum(ray(sec.edges[0, rank]), ray(sec.edges[0, rank + 1]))
         np.testing.assert_allclose(sec.distance(x, rank), expected, rtol=1e-12, atol=1e-17)
+
+
+# rings of sectors: (ring radii inside the annulus, sector edges per ring); the outer ring runs
+# to infinity and the inner one from the axis, as in a run
+RING_CUTS = {
+    "2 rings x 2, one wedge wider than pi": ([0.08], [[-2.0, 2.4], [-1.0, 0.5]]),
+    "3 rings x 1": ([0.06, 0.12], [[-3.0], [0.2], [1.0]]),
+    "2 rings x 4, one wedge 0.01 rad": ([0.1], [[-1.0, -0.99, 0.5, 2.0], [-3.0, -2.0, 0.0, 1.0]]),
+}
+
+
+def ring_cut(name):
+    radii, starts = RING_CUTS[name]
+    edges = np.array([e + [e[0] + 2 * math.pi] for e in starts])
+    return cut.Cut(np.array([0.0] + radii + [math.inf]), edges)
+
+
+def annulus_points(n, seed, r_in=0.02, r_out=0.2):
+    rng = np.random.default_rng(seed)
+    phi = rng.uniform(-math.pi, math.pi, n)
+    r = rng.uniform(r_in, r_out, n)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi)]), r, phi
+
+
+@pytest.mark.parametrize("name", RING_CUTS)
+def test_owner_of_rings_is_the_ring_and_wedge_holding_the_point(name):
+    c = ring_cut(name)
+    x, r, phi = annulus_points(6000, 7)
+    per_ring = c.edges.shape[1] - 1
+    ring = np.searchsorted(c.radii, r, side="right") - 1
+    wedge = [wedge_of(p, c.edges[b]) for p, b in zip(phi, ring)]
+    # points within 1e-9 of a boundary may go either way (rounding); leave them out
+    clear = np.array([len(w) == 1 for w in wedge]) & (
+        np.min(np.abs(r[:, None] - c.radii[None, 1:-1]), axis=1) > 1e-9)
+    gap = np.min(np.abs((phi[:, None, None] - c.edges[None] + math.pi) % (2 * math.pi) - math.pi),
+                 axis=(1, 2))
+    clear &= gap > 1e-9
+    expected = np.array([b * per_ring + w[0] for b, w in zip(ring[clear], np.array(
+        wedge, dtype=object)[clear])])
+    for guess in range(c.count):
+        np.testing.assert_array_equal(c.owner(x[clear], guess), expected)
+    assert set(expected) == set(range(c.count))
+
+
+def sampled_distance(x, r0, r1, a0, a1, samples=20_000):
+    """Direct: distance from each point to the nearest of many points on the boundary of the
+    polar rectangle r0 <= r <= r1, a0 <= angle <= a1 (r1 capped at 1 m)."""
+    r1 = min(r1, 1.0)
+    a = np.linspace(a0, a1, samples)
+    rr = np.linspace(r0, r1, samples)
+    bx = np.concatenate([r0 * np.cos(a), r1 * np.cos(a), rr * math.cos(a0), rr * math.cos(a1)])
+    by = np.concatenate([r0 * np.sin(a), r1 * np.sin(a), rr * math.sin(a0), rr * math.sin(a1)])
+    return np.array([np.min(np.hypot(bx - p[0], by - p[1])) for p in x])
+
+
+@pytest.mark.parametrize("name", RING_CUTS)
+def test_distance_to_a_ring_sector_is_to_its_nearest_boundary_point(name):
+    c = ring_cut(name)
+    x, _, _ = annulus_points(400, 8, 0.0, 0.25)
+    per_ring = c.edges.shape[1] - 1
+    for rank in range(c.count):
+        b, s = divmod(rank, per_ring)
+        out = x[c.owner(x) != rank]
+        got = c.distance(out, rank)
+        a0, a1 = c.edges[b, s], c.edges[b, s + 1]
+        if a1 - a0 >= 2 * math.pi:  # a whole ring: no radial edges
+            r = np.hypot(out[:, 0], out[:, 1])
+            expected = np.maximum(np.maximum(c.radii[b] - r, r - c.radii[b + 1]), 0.0)
+            np.testing.assert_allclose(got, expected, rtol=1e-12, atol=1e-15)
+            continue
+        # the boundary sampled every <= 2 pi x 1 m / 20,000: the nearest sample is that close
+        np.testing.assert_allclose(got, sampled_distance(out, c.radii[b], c.radii[b + 1], a0, a1),
+                                   rtol=0, atol=4e-4)
+
+
+def test_ghost_counts_are_the_points_outside_each_domain_within_the_width():
+    c = ring_cut("2 rings x 4, one wedge 0.01 rad")
+    x, _, _ = annulus_points(3000, 9)
+    width = 0.01
+    owner = c.owner(x)
+    expected = [int(np.sum((owner != d) & (c.distance(x, d) < width))) for d in range(c.count)]
+    assert list(cut.ghost_counts(x, c.radii, c.edges, width)) == expected
+
+
+def uniform_annulus(n, r_in, r_out, seed=11):
+    rng = np.random.default_rng(seed)
+    r = np.sqrt(rng.uniform(r_in**2, r_out**2, n))  # uniform in area
+    phi = rng.uniform(-math.pi, math.pi, n)
+    return np.column_stack([r * np.cos(phi), r * np.sin(phi)])
+
+
+def test_auto_cut_takes_sectors_for_a_narrow_gap_and_rings_for_a_wide_one():
+    """Ghosts per domain ~ width x n_A x the length of its edges inside the packing (the walls'
+    arcs have no particles beyond them). In a gap L at mean radius r, each of P sectors has 2L;
+    R rings of A sectors, a middle ring's domain 2 L / R + 2 x 2 pi r / A, an outer or inner
+    ring's one arc less. B's gap at P = 8 (R_i 0.104 m, L 0.149 m, r ~0.19 m): sectors 0.30 m,
+    2 x 4 ~0.45 m: sectors. A gap 3 times the inner radius at P = 64 (0.05 to 0.2 m, r ~0.13
+    m): sectors 0.30 m, 4 x 16 or 2 x 32 ~0.18 m: rings, with clearly fewer ghosts."""
+    width, reach = 0.002, 0.0015
+    narrow = uniform_annulus(40_000, 0.104, 0.253)
+    c, _ = choice.choose(narrow, 8, "auto", 0.104, reach, width)
+    assert c.rings == 1 and c.count == 8
+    wide = uniform_annulus(100_000, 0.05, 0.2)
+    c, _ = choice.choose(wide, 64, "auto", 0.05, reach, width)
+    sectors64 = cut.balanced(cut.angle_histogram(wide, choice.HIST_BINS), 64)
+    assert c.rings > 1 and c.count == 64
+    assert (cut.ghost_counts(wide, c.radii, c.edges, width).max()
+            < 0.8 * cut.ghost_counts(wide, sectors64.radii, sectors64.edges, width).max())
+    # every domain holds about as many points (cut at histogram bins)
+    counts = np.bincount(c.owner(wide), minlength=64)
+    assert counts.min() > 0.9 * counts.max()
+
+
+def test_a_requested_cut_is_used_and_a_bad_one_is_refused_clearly():
+    x = uniform_annulus(20_000, 0.05, 0.2)
+    c, r_top = choice.choose(x, 8, "2x4", 0.05, 0.003, 0.004)
+    assert (c.rings, c.count) == (2, 8) and r_top >= np.hypot(x[:, 0], x[:, 1]).max()
+    c, _ = choice.choose(x, 8, "sectors", 0.05, 0.003, 0.004)
+    assert (c.rings, c.count) == (1, 8)
+    for text, words in (("3x3", "9 domains, but the run has 8 MPI ranks"),
+                        ("rings", "expected 'auto', 'sectors' or RINGSxSECTORS"),
+                        ("8x1", "narrower than the interaction reach")):
+        with pytest.raises(choice.SceneError, match=words):
+            choice.choose(x, 8, text, 0.05, 0.03, 0.04)
+    with pytest.raises(choice.SceneError, match="too many for this cell.*use at most 10 ranks"):
+        choice.choose(x, 16, "sectors", 0.05, 0.03, 0.04)
 
 
 @pytest.mark.parametrize("hist", [0, 2, 3, 5])

@@ -1,4 +1,4 @@
-"""MPI sector decomposition: results do not depend on the number of ranks (bit for bit),
+"""MPI decomposition (sectors, rings of sectors): results do not depend on the number of ranks (bit for bit),
 springs migrate intact, checkpoints move between rank counts, failures never hang.
 
 Each test launches ``mpiexec`` (the one beside sys.executable) on scripts in tests/mpi/; runs on
@@ -81,6 +81,50 @@ def test_fast_shear_with_many_migrations_is_bitwise_identical(tmp_path):
         assert_same_state(ref, got, label)
 
 
+@pytest.mark.timeout(1800)
+def test_rings_of_sectors_are_bitwise_identical_to_one_rank(tmp_path):
+    """Cut into 2 rings x 2 sectors on 4 ranks (ghosts across both kinds of edge, re-cut at
+    nearly every other exchange, so that wall disks a rank did not move come near its domain
+    and are touched at once) and into 3 rings of one sector each on 3 ranks: the same bits as
+    one rank, with migrations across the rings' boundaries and every pair listed."""
+    scene = fast_shear_scene(tmp_path)
+    steps = 12_000
+    ref = dump_state(scene, steps, tmp_path / "r1.npz", 1)
+    for n, cut, threshold in ((4, "2x2", "0"), (3, "3x1", "0.1")):
+        label = f"{n} ranks cut {cut} vs 1"
+        got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n, "--cut", cut, "--check-lists",
+                         "--balance-threshold", threshold)
+        assert got["rings"] == int(cut[0]), label
+        if threshold == "0":
+            assert got["rebalanced"] >= 10, f"{label}: re-cut {got['rebalanced']} times"
+        assert got["migrated"] >= 100, f"{label}: only {got['migrated']} migrations"
+        assert got["lists_checked"] == got["rebuilds"] > 100, label
+        assert got["idle_walls"] > 0 and got["idle_wall_pairs"] == 0, label
+        assert_same_state(ref, got, label)
+
+
+@pytest.mark.slow
+@pytest.mark.timeout(5400)
+def test_30k_cell_is_bitwise_identical_on_1_2_4_8_16_ranks_as_sectors_and_rings(tmp_path):
+    """B scaled to 30,096 disks, compressed and sheared on one rank to 1.2 s (27,567 steps),
+    then 20,000 more steps: on one rank without a stop, and from the 1.2 s checkpoint on 2
+    (the automatic cut), 4 (2 x 2), 8 (2 x 4) and 16 ranks (4 x 4, and sectors), each with
+    migrations (oversubscribed: minutes per run)."""
+    scene = Path(__file__).parents[1] / "run_scripts" / "couette_B_30k.toml"
+    start, steps = 27_567, 47_567
+    ckpt = tmp_path / "c.h5"
+    ref = dump_state(scene, steps, tmp_path / "r1.npz", 1, "--checkpoint-at", str(start),
+                     str(ckpt), timeout=2400)
+    for n, cut, rings in ((2, "auto", 1), (4, "2x2", 2), (8, "2x4", 2), (16, "4x4", 4),
+                          (16, "sectors", 1)):
+        label = f"{n} ranks cut {cut} vs 1"
+        got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n, "--restart", str(ckpt),
+                         "--cut", cut, timeout=1800)
+        assert got["rings"] == rings, label
+        assert got["migrated"] >= 100, f"{label}: only {got['migrated']} migrations"
+        assert_same_state(ref, got, label)
+
+
 def test_loaded_springs_migrate_intact(tmp_path):
     """A particle with >= 2 loaded contacts is moved across a sector edge: its contacts'
     forces and springs are the same on both ranks before and after, and the run continues
@@ -117,8 +161,8 @@ def test_too_many_ranks_is_refused_with_a_clear_message(tmp_path):
     # 8 sectors of a 10 mm inner ring are 7.9 mm wide there, less than the 9.7 mm ghost width
     scene = fast_shear_scene(tmp_path, inner_radius=0.01, outer_radius=0.07,
                              outer_start_radius=0.1)
-    proc = run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / "o")], 8,
-                   timeout=600, check=False, module=False)
+    proc = run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / "o"),
+                    "--cut", "sectors"], 8, timeout=600, check=False, module=False)
     assert proc.returncode != 0
     assert "too many for this cell" in proc.stderr and "use at most" in proc.stderr
 

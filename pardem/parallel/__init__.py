@@ -1,4 +1,5 @@
-"""Everything that talks MPI: the angular sectors (``sectors``), the decomposition with its
+"""Everything that talks MPI: the cut of the annulus into sectors or rings of sectors (``cut``,
+``choice``), the decomposition with its
 collectives (``comm``, mpi4py), the compiled exchange of migrants and ghosts (``exchange``), the
 per-step ghost refresh (``halo``, ``refresh``) and libmpi itself (``native``).
 
@@ -44,15 +45,17 @@ def world():
     return MPI.COMM_WORLD if MPI.COMM_WORLD.Get_size() > 1 else None
 
 
-def decomposition(comm, reach_width: float, inner_radius: float = 0.0, margin: float = 0.0):
+def decomposition(comm, reach_width: float, inner_radius: float = 0.0, margin: float = 0.0,
+                  cut: str = "auto"):
     """The decomposition of a run on the ranks of ``comm`` (None or one rank: serial).
     reach_width (m): the farthest a listed partner can be (largest diameter + skin); margin
-    (m): extra ghost width (GHOST_MARGIN_SKINS skins)."""
+    (m): extra ghost width (GHOST_MARGIN_SKINS skins); cut: "auto", "sectors" or "RxA" (R
+    rings of A sectors, ``choice.requested_rings``)."""
     if comm is None or comm.Get_size() == 1:
         return SerialDecomposition(reach_width, margin)
     from .comm import Decomposition
 
-    return Decomposition(comm, reach_width, inner_radius, margin=margin)
+    return Decomposition(comm, reach_width, inner_radius, margin=margin, cut=cut)
 
 
 def smallest_node_share(comm, amount: float) -> float:

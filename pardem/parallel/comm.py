@@ -1,5 +1,5 @@
-"""Sector decomposition under MPI: migration with contact history, ghost selection, balancing,
-and the gathers and reductions of output, diagnostics and averaging (mpi4py).
+"""Decomposition of the annulus under MPI (sectors, or rings of sectors: ``cut.py``): migration
+with contact history, ghost selection, balancing, and the gathers and reductions of output, diagnostics and averaging (mpi4py).
 
 Stage: communication at exchanges (the neighbour builds that migrate particles and select
 ghosts) and at output times; the per-step ghost refresh is compiled into the step loop
@@ -9,17 +9,17 @@ and no MPI.
 Most neighbour builds only rebuild each rank's lists: the ghosts are selected with a margin
 (``GHOST_MARGIN_SKINS``) and stay valid until the bodies have moved half of it
 (``exchange_due``). At a build that needs an exchange, every rank (collectively):
-1. re-cuts the sectors if the particle counts drifted apart by more than ``balance_threshold``
-   (cuts placed on a global angular histogram, identical on every rank; checked at every
-   ``REBALANCE_EVERY``-th exchange);
-2. in one compiled round (``exchange.py``) sends each owned particle that left its sector to
+1. re-cuts the domains if the particle counts drifted apart by more than ``balance_threshold``
+   (cuts placed on global radial and angular histograms, identical on every rank, the number of
+   rings kept; checked at every ``REBALANCE_EVERY``-th exchange);
+2. in one compiled round (``exchange.py``) sends each owned particle that left its domain to
    the new owner, with the tangential springs of all its listed pairs (keyed by the partners'
    gids; the new owner merges them with its own), and to every other rank the particles it
-   will need as ghosts: those within ``ghost_width`` of its sector (largest free diameter +
+   will need as ghosts: those within ``ghost_width`` of its domain (largest free diameter +
    skin, which covers every pair the Verlet list can hold, + the margin);
 3. fixes the per-step refresh plan (``halo.Halo``): the same particles in the same order.
 Wall disks are prescribed (a function of time only): every rank holds all of them and places them
-itself, the ones near its sector at every step, the others at exchanges and before output.
+itself, the ones near its domain at every step, the others at exchanges and before output.
 """
 
 from __future__ import annotations
@@ -31,12 +31,13 @@ from mpi4py import MPI
 
 from ..contact.history import NO_HISTORY
 from ..state import row_columns, row_width
-from . import sectors as sec
+from . import cut as ct
+from .choice import HIST_BINS, choose
 from .comm_rows import sorted_rows
 from .exchange import ExchangePlan, exchange_rows
 from .halo import (GHOST_VALUES, HEADER, Halo, SharedWindow, halo_buffers, handles_of,
                    make_halo)
-from .serial import HIST_BINS, History, too_many_ranks
+from .serial import History
 
 REBALANCE_EVERY = 2  # exchanges between balance checks (counts drift slowly)
 # Largest ghost refresh (doubles any rank sends per step, to all its neighbours together) that goes
@@ -52,17 +53,21 @@ class Decomposition:
     parallel = True
 
     def __init__(self, comm, reach_width: float, inner_radius: float = 0.0,
-                 balance_threshold: float = 0.1, margin: float = 0.0):
+                 balance_threshold: float = 0.1, margin: float = 0.0, cut: str = "auto"):
         self.comm = comm
         self.size = comm.Get_size()
         self.rank = comm.Get_rank()
         # reach_width: largest free diameter + skin, the farthest a listed partner can be
         self.margin = margin
+        self.reach_width = reach_width
+        self.inner_radius = inner_radius
         self.ghost_width = reach_width + margin
+        self.requested_cut = cut  # "auto", "sectors" or "RxA" (choice.requested_rings)
+        self.r_top = 0.0  # m: the radial histogram's range, fixed at the first cut
         self.x_exchanged = np.zeros((0, 2))  # owned and wall rows at the last exchange (m)
         self.n_exchanges = 0
         self.balance_threshold = balance_threshold
-        self.sectors = sec.single()
+        self.cut = ct.single()
         self.halo: Halo | None = None  # the refresh plan, made at the first exchange
         self.wait = np.zeros(1)  # s waiting in the refresh, over every plan of the run
         self.n_migrated = 0  # particles received from other ranks (cumulative)
@@ -74,7 +79,6 @@ class Decomposition:
         self.window: SharedWindow | None = None  # made (or grown) at an exchange, to its size
         self.n_windows = 0
         self.n_shared_exchanges = 0  # exchanges after which the refresh used shared memory
-        too_many_ranks(self.size, inner_radius, reach_width)
 
     # -- collectives -----------------------------------------------------------------------
     def max(self, value: float) -> float:
@@ -116,24 +120,34 @@ class Decomposition:
             return None
         return sorted_rows([p for p in parts if p[next(iter(p))].shape[0]] or parts[:1], key)
 
-    # -- sectors ---------------------------------------------------------------------------
-    def place_sectors(self, x_free: np.ndarray) -> None:
-        """Cut the annulus for the free particles x_free [N,2] (known to every rank)."""
-        hist = sec.angle_histogram(x_free, HIST_BINS)
-        self.sectors = sec.balanced(hist, self.size)
+    # -- the cut ---------------------------------------------------------------------------
+    def place_cut(self, x_free: np.ndarray) -> None:
+        """Cut the annulus for the free particles x_free [N,2] (known to every rank): the
+        requested cut, or the one with the fewest ghosts (``choice.choose``)."""
+        self.cut, self.r_top = choose(x_free, self.size, self.requested_cut, self.inner_radius,
+                                      self.reach_width, self.ghost_width)
 
     def rebalance(self, x_owned: np.ndarray) -> None:
-        """Re-cut the sectors if the owned counts differ by more than the threshold (checked
-        at every REBALANCE_EVERY-th exchange)."""
+        """Re-cut the domains if the owned counts differ by more than the threshold (checked
+        at every REBALANCE_EVERY-th exchange), with as many rings as before."""
         self._balance_calls += 1
         if self._balance_calls % REBALANCE_EVERY:
             return
         counts = np.array(self.comm.allgather(x_owned.shape[0]))
-        if sec.imbalance(counts) <= self.balance_threshold:
+        if ct.imbalance(counts) <= self.balance_threshold:
             return
-        hist = sec.angle_histogram(x_owned, HIST_BINS)
-        self.comm.Allreduce(MPI.IN_PLACE, hist, op=MPI.SUM)
-        self.sectors = sec.balanced(hist, self.size)
+        rings = self.cut.rings
+        if rings == 1:
+            hist = ct.angle_histogram(x_owned, HIST_BINS)
+            self.comm.Allreduce(MPI.IN_PLACE, hist, op=MPI.SUM)
+            self.cut = ct.balanced(hist, self.size)
+        else:
+            hist = ct.radius_histogram(x_owned, self.r_top, HIST_BINS)
+            self.comm.Allreduce(MPI.IN_PLACE, hist, op=MPI.SUM)
+            radii = ct.ring_radii(hist, self.r_top, rings)
+            hists = ct.ring_histograms(x_owned, radii, HIST_BINS)
+            self.comm.Allreduce(MPI.IN_PLACE, hists, op=MPI.SUM)
+            self.cut = ct.balanced_rings(radii, hists, self.size // rings)
         self.n_rebalanced += 1
 
     # -- neighbour build -------------------------------------------------------------------
@@ -144,10 +158,10 @@ class Decomposition:
         rebuild its lists.
 
         Why that is safe: the ghosts were selected ``margin`` wider than the reach of a listed
-        pair, and every owned particle lay in the sector, so while no body has moved more than
+        pair, and every owned particle lay in its domain, so while no body has moved more than
         margin/2 since then, every partner of an owned particle within the reach is still here
-        (its distance to the sector then is at most reach + 2 x margin/2), and the wall disks
-        the step loop moves still cover the sector (``order_walls``). The test takes each
+        (its distance to the domain then is at most reach + 2 x margin/2), and the wall disks
+        the step loop moves still cover the domain (``order_walls``). The test takes each
         body's own displacement since the exchange (the rows keep their order until the next
         one), the largest over all ranks, so every rank gets the same answer. The sum of each
         build's largest displacement bounds it too, but grows by about skin/2 per build
@@ -156,7 +170,7 @@ class Decomposition:
         if x_local.shape != self.x_exchanged.shape:  # no exchange yet
             moved = math.inf
         else:
-            moved = sec.largest_move(x_local, self.x_exchanged)
+            moved = ct.largest_move(x_local, self.x_exchanged)
         return self.max(moved) > 0.5 * self.margin
 
     def exchanged(self, x_local: np.ndarray) -> None:
@@ -167,13 +181,13 @@ class Decomposition:
     def distribute(self, ps, pairs, clock, counts: tuple[int, int, int], hist: int,
                    ring_walls: bool, history: History | None, t: float, prm,
                    wall_margin: float):
-        """Migrate owned particles that left the sector, with their contact history, and
+        """Migrate owned particles that left the domain, with their contact history, and
         exchange ghosts, in one round (``exchange.exchange_rows``; it sets the counts in
         clock); sets ``self.halo`` for the ghosts' per-step refresh. ``counts``: (n_owned,
         n_local, idle) as in exchange_rows. History: ``history`` if given (a restart), else the
         non-zero rows of ``pairs`` (``hist`` columns, 0: none). If ps is large enough, the new
         rows are stored in it, the idle wall disks placed at time t (s), the wall disks within
-        ``wall_margin`` (m) of the sector stored first, and the lists built (pair list, and the
+        ``wall_margin`` (m) of the domain stored first, and the lists built (pair list, and the
         ring-contact candidates if ``ring_walls``; ``prm``: the step loop's Params). Returns
         ``(written, moved, own, walls, ghosts, lists, history)``: lists as from exchange_rows,
         the rest as from ``receive_rows``."""
@@ -205,7 +219,7 @@ class Decomposition:
                            wall_margin) -> tuple:
         """The arguments of ``exchange.exchange_rows`` for ``distribute``'s (also what
         ``compile_ahead`` compiles it for)."""
-        plan = ExchangePlan(self.sectors.edges, self.rank, self.ghost_width, wall_margin,
+        plan = ExchangePlan(self.cut.radii, self.cut.edges, self.rank, self.ghost_width, wall_margin,
                             row_width(hist), row_columns(hist)["x"].start, self.shared_halo,
                             ring_walls)
         return (ps, pairs, clock, counts, plan, hist > 0 and history is None,
@@ -231,7 +245,5 @@ class Decomposition:
         return np.concatenate(parts) if parts else own_values[:0]
 
     def describe(self) -> str:
-        deg = np.degrees(np.diff(self.sectors.edges))
-        return (f"{self.size} ranks, sectors {', '.join(f'{d:.1f}' for d in deg)} deg, "
-                f"ghost width {self.ghost_width * 1e3:.2f} mm")
+        return (f"{self.size} ranks, {self.cut.describe()}, ghost width {self.ghost_width * 1e3:.2f} mm")
 

@@ -1,6 +1,6 @@
 """Compiled exchange under MPI (the neighbour builds that ``Decomposition.exchange_due``
 selects): migration with contact history and ghost selection in one round, then the new layout
-of the rows, the wall disks near the sector, and the per-step refresh plan.
+of the rows, the wall disks near the domain, and the per-step refresh plan.
 
 Stage: neighbour rebuild (``comm.Decomposition.distribute`` calls ``exchange_rows``; the
 collective itself is ``halo.alltoallv``). Done as ~80 numpy and mpi4py calls with the
@@ -10,10 +10,10 @@ Alltoallv. The other builds are one compiled call too (``neighbors.build_lists``
 
 One round suffices because the sender knows where each of its particles goes: to rank r it
 sends the particles r will own (migrants, with the springs of their listed pairs) and the
-particles another rank will own that lie within ``ghost_width`` of sector r (ghosts). A
-migrant that lies near the sender's own sector is kept there as a ghost without a message.
+particles another rank will own that lie within ``ghost_width`` of domain r (ghosts). A
+migrant that lies near the sender's own domain is kept there as a ghost without a message.
 Every row carries its new owner; each rank stores its ghosts sorted by (owner, gid), and each
-owner sends its per-step refreshes to r in gid order of the particles near sector r, the same
+owner sends its per-step refreshes to r in gid order of the particles near domain r, the same
 set and order, because sender and owner apply the same distance test to the same bits.
 
 Message to one rank: [rows, springs, rows x (owner, packed row), springs x (lo, hi, history)],
@@ -34,17 +34,18 @@ from ..sorted_runs import merge_slots, run_order
 from ..state import move_rows, pack_particles, unpack_particles
 from ..walls import place_wall_disks
 from .halo import alltoallv, halo_buffers, peer_offsets
-from .sectors import edge_distance, edge_vectors, near, owners
+from .cut import domain_geometry, edge_distance, near, owners
 
 
 class ExchangePlan(NamedTuple):
-    """What an exchange needs to know of the decomposition: ``edges`` [P+1] (rad, the sector
-    edges), this ``rank``, ``ghost_width`` (m: particles this close to a sector are its
-    ghosts), ``wall_margin`` (m: wall disks this close to the sector are moved by its rank),
+    """What an exchange needs to know of the decomposition: ``radii`` and ``edges`` (the cut's,
+    ``cut.Cut``), this ``rank``, ``ghost_width`` (m: particles this close to a domain are its
+    ghosts), ``wall_margin`` (m: wall disks this close to the domain are moved by its rank),
     ``width`` (columns of a packed row) and ``x_col`` (its first position column), ``shared``
     (the refresh goes through shared memory) and ``ring_walls`` (build the ring-contact
     candidates)."""
 
+    radii: np.ndarray
     edges: np.ndarray
     rank: int
     ghost_width: float
@@ -102,13 +103,13 @@ def send_rows(ps, pairs, n_owned, plan, from_list, history, handles):
     pair list if ``from_list``, else ``history`` (lo, hi, rows; a restart's). Returns
     ``(rbuf, recv_off, owner, history, mpi_error)``: the messages received, each owned row's
     new owner, and the history sent from."""
-    edges, rank, ghost_width, width = plan.edges, plan.rank, plan.ghost_width, plan.width
-    size = edges.size - 1
+    rank, ghost_width, width = plan.rank, plan.ghost_width, plan.width
+    e = domain_geometry(plan.radii, plan.edges)
+    size = e.shape[0]
     lo, hi, xi = history
     if from_list:
         lo, hi, xi = live_history(ps.gid, pairs.i, pairs.j, pairs.hist, pairs.count[0])
-    owner = owners(ps.x[:n_owned], edges, rank)
-    e = edge_vectors(edges)
+    owner = owners(ps.x[:n_owned], plan.radii, plan.edges, rank)
     # rows for each destination: its migrants and its ghosts owned by someone else
     dest = np.zeros((size, n_owned), np.bool_)
     n_rows = np.zeros(size, np.int64)
@@ -178,10 +179,10 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
     ps[:n_local] stays) and ghosts; if written, own is empty."""
     n_owned, n_local, idle = counts
     rbuf, recv_off = received
-    edges, rank, ghost_width, width = plan.edges, plan.rank, plan.ghost_width, plan.width
+    rank, ghost_width, width = plan.rank, plan.ghost_width, plan.width
     lo, hi, xi = history
-    size = edges.size - 1
-    e = edge_vectors(edges)
+    e = domain_geometry(plan.radii, plan.edges)
+    size = e.shape[0]
     n_arr, n_gh, n_sp = 0, 0, 0
     for q in range(size):
         if recv_off[q + 1] > recv_off[q]:
@@ -269,9 +270,9 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
 @nb.njit(**JIT)
 def _refresh_plan(x_own, ghost_key, e, rank, ghost_width):
     """The per-step refresh plan: to each other rank, the owned particles (positions x_own, in
-    storage order) near its sector; from it, the ghosts it owns (ghost_key: owner, gid). Returns
+    storage order) near its domain; from it, the ghosts it owns (ghost_key: owner, gid). Returns
     ``(nbr, send_idx, send_off, recv_off)`` as in ``halo.Halo``."""
-    size = e.shape[0] - 1
+    size = e.shape[0]
     send = np.zeros((size, x_own.shape[0]), np.bool_)
     n_send = np.zeros(size, np.int64)
     for p in range(x_own.shape[0]):
@@ -298,11 +299,11 @@ def _refresh_plan(x_own, ghost_key, e, rank, ghost_width):
 def arrange_walls(ps, first, first_idle, end, t, prm, plan):
     """At an exchange: place the idle wall disks ps[first_idle:end] at time t (the step loop
     moved only ps[first:first_idle]), then store the wall disks ps[first:end] that are within
-    ``plan.wall_margin`` (m) of this rank's sector or inside it first. Returns how many that
+    ``plan.wall_margin`` (m) of this rank's domain or inside it first. Returns how many that
     is. One compiled call: at an exchange, every call from Python that passes the particle
     arrays costs tens of us."""
     place_wall_disks(ps, first_idle, end, t, prm.rings, False)
-    close = near(ps.x[first:end], plan.edges, plan.rank, plan.wall_margin)
+    close = near(ps.x[first:end], plan.radii, plan.edges, plan.rank, plan.wall_margin)
     n_near = int(close.sum())
     if not close[:n_near].all():  # not yet stored near-first
         order = np.concatenate((np.flatnonzero(close), np.flatnonzero(~close))) + first

@@ -2,7 +2,7 @@
 
     mpiexec -n P python -m mpi4py tests/mpi/dump_state.py SCENE STEPS OUT.npz [--restart CKPT]
         [--checkpoint-at STEP CKPT] [--grow-window] [--shared-limit DOUBLES] [--check-lists]
-        [--no-room]
+        [--no-room] [--cut auto|sectors|RxA] [--balance-threshold F]
 
 Rank 0 writes OUT.npz with every particle array and the springs (sorted by gid), plus the run's
 migration and rebuild counts and, summed over the ranks, the wall disks a rank does not move
@@ -16,7 +16,10 @@ search finds in the gathered positions (a ghost missing after a build without ex
 lose a pair); the number of builds checked is saved. ``--no-room``: after every build the
 particle arrays are cut to the rows in use, so that an exchange that brings more rows than it
 takes away stores them through the caller's larger arrays (``rebuild.migrate``) instead of in
-place; the number of such exchanges on a rank that received migrants is saved.
+place; the number of such exchanges on a rank that received migrants is saved. ``--cut``: the
+decomposition (``Simulation(cut=...)``); the rings of the cut used are saved.
+``--balance-threshold``: re-cut when the owned counts differ by more than this fraction
+(default 0.1; 0 re-cuts at nearly every check).
 """
 
 import argparse
@@ -92,6 +95,8 @@ def main():
     ap.add_argument("--shared-limit", type=int)
     ap.add_argument("--check-lists", action="store_true")
     ap.add_argument("--no-room", action="store_true")
+    ap.add_argument("--cut", default="auto")
+    ap.add_argument("--balance-threshold", type=float)
     args = ap.parse_args()
     if args.shared_limit is not None:
         decomposition.SHARED_HALO_LIMIT = args.shared_limit
@@ -100,7 +105,9 @@ def main():
         Simulation._rebuild = checked_rebuild(comm)
     if args.no_room:
         Simulation._rebuild = cut_to_rows_in_use(comm)
-    sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm)
+    sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm, cut=args.cut)
+    if args.balance_threshold is not None:
+        sim.decomp.balance_threshold = args.balance_threshold
     if args.grow_window and sim.decomp.window is not None:  # None: messages (oversubscribed)
         sim.decomp.window.free()
         sim.decomp.window = SharedWindow(comm, 4)
@@ -128,7 +135,7 @@ def main():
                  rebalanced=sim.decomp.n_rebalanced,
                  idle_walls=idle_walls, idle_wall_pairs=idle_pairs,
                  shared_windows=sim.decomp.n_windows,
-                 shared_exchanges=sim.decomp.n_shared_exchanges)
+                 shared_exchanges=sim.decomp.n_shared_exchanges, rings=sim.decomp.cut.rings)
 
 
 if __name__ == "__main__":

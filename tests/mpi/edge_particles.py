@@ -13,8 +13,8 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
-from pardem.parallel import sectors
-from pardem.parallel.serial import HIST_BINS
+from pardem.parallel import cut
+from pardem.parallel.choice import HIST_BINS
 from pardem.placement import initial_configuration
 from pardem.scene import load_scene
 from pardem.simulation import Simulation
@@ -23,7 +23,7 @@ scene = load_scene(sys.argv[1])
 steps, out = int(sys.argv[2]), sys.argv[3]
 comm = MPI.COMM_WORLD
 init = initial_configuration(scene)
-edges = sectors.balanced(sectors.angle_histogram(init.x[:init.n_free], HIST_BINS), 2).edges
+edges = cut.balanced(cut.angle_histogram(init.x[:init.n_free], HIST_BINS), 2).edges[0]
 g = scene.geometry
 r_mid = 0.5 * (g.inner_radius + g.outer_radius)
 sim = Simulation(scene, comm=comm)

@@ -49,7 +49,7 @@ def main():
     assert comm.size == 2
     sim = Simulation(load_scene(scene), comm=comm)
     sim.advance_steps(settle)
-    e0, e1 = sim.decomp.sectors.edges[:2]  # rank 0 owns angles e0 <= phi < e1
+    e0, e1 = sim.decomp.cut.edges[0, :2]  # rank 0 owns angles e0 <= phi < e1
     n_owned = int(sim.clock.n_owned[0])
     ang = np.mod(np.arctan2(sim.ps.x[:n_owned, 1], sim.ps.x[:n_owned, 0]) - e0, 2 * np.pi)
     best = (np.inf, -1)
@@ -65,9 +65,9 @@ def main():
     full = comm.bcast(before, root=0)  # the owner (rank 0) lists all of gid's contacts
     same_as_owner(before, full)  # the ghost side lists some of them, with the same bits
     # Move the edge so that the particle now lies on rank 1's side, then rebuild.
-    edges = sim.decomp.sectors.edges.copy()
-    edges[1] = e0 + ang_p - 1e-9
-    sim.decomp.sectors = sim.decomp.sectors._replace(edges=edges)
+    edges = sim.decomp.cut.edges.copy()
+    edges[0, 1] = e0 + ang_p - 1e-9
+    sim.decomp.cut = sim.decomp.cut._replace(edges=edges)
     migrated0 = sim.decomp.n_migrated
     sim._rebuild()
     owned = set(sim.ps.gid[: int(sim.clock.n_owned[0])].tolist())
