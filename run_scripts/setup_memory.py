@@ -1,27 +1,56 @@
-"""Benchmark: a scene's set-up time and largest resident memory per rank, per owned disk.
+"""Benchmark: a scene's set-up time and resident memory per rank, per owned disk, at the set-up
+and while it steps.
 
-    mpiexec -n P python run_scripts/setup_memory.py SCENE.toml [--steps 20]
+    mpiexec -n P python run_scripts/setup_memory.py SCENE.toml [--steps 20] [--restart CKPT]
 
-Builds the scene on the ranks of COMM_WORLD (the placement, each rank's share, the first
-exchange and neighbour build), runs ``--steps`` steps, and prints per rank the seconds of
-``Simulation(scene)``, then the largest resident set size (``ru_maxrss``: the imports, the
-compiled kernels and the peak of the set-up included) after the set-up and after the steps, in
-MB and in bytes per owned disk. Run it once beforehand, so that the kernels come from numba's
-cache (compiling takes memory of its own). To compare two versions of the code, run it with
-``PYTHONPATH`` pointing to each (e.g. a ``git worktree`` of the older commit), alternately.
+Builds the scene on the ranks of COMM_WORLD (the placement, or the checkpoint ``--restart``;
+each rank's share, the first exchange and neighbour build), runs ``--steps`` steps, and prints
+per rank the seconds of ``Simulation(scene)``, the largest resident set size of the set-up
+(``ru_maxrss``: the imports, the compiled kernels and the peak of the set-up included), the
+resident set after it, and the largest one during the steps (``VmRSS`` sampled every 2 ms), in
+MB and in bytes per owned disk, with the stage in which the resident set rose (``build``: a
+neighbour build, ``exchange``: one that also migrates and selects ghosts, ``steps``: the
+compiled step loop). The C heap keeps what it freed for reuse, so the resident set rises at the
+largest transient of a stage and stays there. Run it once beforehand, so that the kernels come
+from numba's cache (compiling takes memory of its own). To compare two versions of the code,
+run it with ``PYTHONPATH`` pointing to each (e.g. a ``git worktree`` of the older commit),
+alternately.
 """
 
 from __future__ import annotations
 
 import argparse
 import resource
+import threading
 import time
+
+
+def resident() -> int:
+    with open("/proc/self/statm") as f:
+        return int(f.read().split()[1]) * resource.getpagesize()
+
+
+class Sampler(threading.Thread):
+    """The largest resident set while running, and how much each stage raised it (bytes)."""
+
+    def __init__(self):
+        super().__init__(daemon=True)
+        self.stage, self.top, self.rises, self.running = "steps", resident(), {}, True
+
+    def run(self):
+        while self.running:
+            now = resident()
+            if now > self.top:
+                self.rises[self.stage] = self.rises.get(self.stage, 0) + now - self.top
+                self.top = now
+            time.sleep(0.002)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene")
     ap.add_argument("--steps", type=int, default=20)
+    ap.add_argument("--restart", help="checkpoint to start from")
     args = ap.parse_args()
     from mpi4py import MPI
 
@@ -30,16 +59,36 @@ def main() -> None:
 
     comm = MPI.COMM_WORLD
     t0 = time.perf_counter()
-    sim = Simulation(load_scene(args.scene), comm=comm if comm.size > 1 else None)
+    sim = Simulation(load_scene(args.scene), comm=comm if comm.size > 1 else None,
+                     restart=args.restart)
     took = time.perf_counter() - t0
     at_setup = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    sampler = Sampler()
+    after = sampler.top
+    original = Simulation._rebuild
+
+    def staged(self, *a, **k):
+        sampler.stage = "exchange" if self.decomp.parallel and k.get("exchange", True) else \
+            "build"
+        try:
+            return original(self, *a, **k)
+        finally:
+            sampler.stage = "steps"
+
+    Simulation._rebuild = staged
+    sampler.start()
     sim.advance_steps(args.steps)
-    at_end = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
+    sampler.running = False
+    sampler.join()
     n = int(sim.clock.n_owned[0])
+    rises = ", ".join(f"{k} +{v / 1e6:.0f} MB" for k, v in sampler.rises.items()) or "none"
     lines = comm.gather(f"rank {comm.rank}: {n} owned disks, set-up {took:.1f} s; largest RSS "
-                        f"after the set-up {at_setup / 1e6:.0f} MB ({at_setup / n:.0f} B per "
-                        f"owned disk), after {args.steps} steps {at_end / 1e6:.0f} MB "
-                        f"({at_end / n:.0f} B)", root=0)
+                        f"of the set-up {at_setup / 1e6:.0f} MB ({at_setup / n:.0f} B per "
+                        f"owned disk), RSS after it {after / 1e6:.0f} MB ({after / n:.0f} B); "
+                        f"largest during {args.steps} steps {sampler.top / 1e6:.0f} MB "
+                        f"({sampler.top / n:.0f} B; rises: {rises}); {sim.n_rebuilds} builds, "
+                        f"{sim.decomp.n_exchanges} exchanges, {int(sim.pairs.count[0])} pairs",
+                        root=0)
     if comm.rank == 0:
         print("\n".join(lines), flush=True)
 

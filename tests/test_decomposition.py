@@ -172,6 +172,12 @@ def test_auto_cut_takes_sectors_for_a_narrow_gap_and_rings_for_a_wide_one():
     # every domain holds about as many points (cut at histogram bins)
     counts = np.bincount(c.owner(wide), minlength=64)
     assert counts.min() > 0.9 * counts.max()
+    # up to 3 ranks sectors are taken without counting: whole rings have more ghosts even here
+    for p in (2, 3):
+        c, r_top = choice.choose(wide, p, "auto", 0.05, reach, width)
+        rings = choice.cut_for(wide, p, p, r_top)
+        assert c.rings == 1 and (cut.ghost_counts(wide, c.radii, c.edges, width).max()
+                                 < cut.ghost_counts(wide, rings.radii, rings.edges, width).max())
 
 
 def test_a_requested_cut_is_used_and_a_bad_one_is_refused_clearly():

@@ -121,7 +121,7 @@ def test_30k_cell_is_bitwise_identical_on_1_2_4_8_16_ranks_as_sectors_and_rings(
         got = dump_state(scene, steps, tmp_path / f"r{n}.npz", n, "--restart", str(ckpt),
                          "--cut", cut, timeout=1800)
         assert got["rings"] == rings, label
-        assert got["migrated"] >= 100, f"{label}: only {got['migrated']} migrations"
+        assert got["migrated"] >= 50, f"{label}: only {got['migrated']} migrations"
         assert_same_state(ref, got, label)
 
 

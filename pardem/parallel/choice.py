@@ -3,7 +3,7 @@ requested by the user (``pardem run --cut``) or chosen.
 
 ``auto`` counts each candidate's ghosts on the free particles' positions (known to every rank at
 the start, so every rank makes the same choice) and takes the one whose busiest rank has the
-fewest, sectors on a tie. A candidate is allowed only if every domain is at least one
+fewest, sectors on a tie (and sectors without counting on up to 3 ranks). A candidate is allowed only if every domain is at least one
 interaction reach wide, radially and along its arc at the ring's inner radius: a narrower
 domain would take as ghosts particles beyond its own particles' neighbours, and the ghosts
 would outnumber the owned particles.
@@ -20,6 +20,11 @@ from . import cut as ct
 
 HIST_BINS = 4096  # angular and radial bins of the histograms the cuts are placed on
 GHOST_SAMPLE = 200_000  # at most this many positions are used to count ghosts for the choice
+# Up to 3 domains, rings are whole rings: a ring's arc (2 pi r, r beyond the inner radius plus a
+# share of the gap L) is longer than a sector's two edges across the gap (2 L) in any annulus of
+# even density, so sectors are taken without counting (which spares a 2-rank run's first start
+# compiling the count).
+SECTORS_ALWAYS = 3
 
 
 def requested_rings(text: str, ranks: int) -> int | None:
@@ -97,6 +102,8 @@ def choose(x: np.ndarray, ranks: int, requested: str, inner_radius: float, reach
         cut = cut_for(x, ranks, rings, r_top)
         if narrowest(cut, inner_radius, outer) < reach:
             continue
+        if rings == 1 and ranks <= SECTORS_ALWAYS:
+            return cut, r_top
         ghosts = int(ct.ghost_counts(sample, cut.radii, cut.edges, ghost_width).max())
         if best is None or ghosts < best[0]:
             best = (ghosts, cut)
