@@ -3,7 +3,7 @@ invocation (the table N x ranks of docs/scaling.md).
 
     python run_scripts/scale_table.py [--scenes couette_B.toml couette_B_30k.toml ...]
                                       [--at 2.5 1.2 ...] [--checkpoints DIR] [--ranks 1 2]
-                                      [--repeats 3] [--particle-steps 1e8]
+                                      [--repeats 3] [--particle-steps 1e8] [--eta]
 
 Each scene runs once to its ``--at`` time (past its compression; not timed) and is checkpointed
 in ``--checkpoints`` (reused when there: a 300k compression takes many minutes). Then every
@@ -57,6 +57,9 @@ def main() -> None:
     ap.add_argument("--ranks", type=int, nargs="+", default=[1, 2])
     ap.add_argument("--repeats", type=int, default=3)
     ap.add_argument("--particle-steps", type=float, default=1e8)
+    ap.add_argument("--eta", action="store_true",
+                    help="track the tangential displacement eta in every run (a checkpoint "
+                         "whose ring samples used it restarts only so)")
     args = ap.parse_args()
     scenes = [Path(s) if Path(s).exists() else HERE / s for s in args.scenes]
     at = args.at or [AT[SCENES.index(s)] if s in SCENES else 2.5 for s in args.scenes]
@@ -74,7 +77,7 @@ def main() -> None:
         for scene in scenes:
             for p in args.ranks:
                 steps = max(200, int(args.particle_steps / free_disks(scene)))
-                res = bench._worker_run(mpiexec, ROOT, ckpts[scene], steps, False, p, env,
+                res = bench._worker_run(mpiexec, ROOT, ckpts[scene], steps, args.eta, p, env,
                                         scene.resolve())
                 res["steps"] = steps
                 last[scene, p] = res
