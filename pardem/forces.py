@@ -18,7 +18,7 @@ import numba as nb
 import numpy as np
 
 from .contact.model import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX,
-                            W_FTY, W_FX, W_FY, W_HIST, W_LANE, W_REDO, W_TI, W_TJ, W_WI, W_WJ,
+                            W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ,
                             history_width, lane_contact, surface_contact)
 from .jit import JIT
 from .walls import outer_radius, ring_surface
@@ -29,16 +29,15 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
     """Pair contacts in canonical order, then flat ring contacts -> ps.f, ps.tau (of the first
     n_loc particles), histories and recorded forces. ``o``: contact.model.ContactOptions.
 
-    The pairs go through four loops in batches of BATCH, so that the contact law runs in SIMD
+    The pairs go through three loops in batches of BATCH, so that the contact law runs in SIMD
     lanes, one pair per lane. (One fused loop was bound by the latency of a pair's ~100-cycle
     chain of dependent square root and divisions, with 1-2 pairs in flight.)
       gather   copy each pair's inputs into the work rows (unsigned indices: numba then adds
                no negative-index wrap-around, which spilled registers here);
       law      the contact law on the work rows only, at unit stride, so LLVM vectorises it
-               without alias checks; the Coulomb cap with selects (sliding contacts are
-               common in steady shear), the rare partial damping window deferred;
-      redo     the few deferred pairs (just touching), scalar, with the full law: the same
-               bits as computing every pair with it;
+               without alias checks; the Coulomb cap and the damping window's partial weight
+               with selects (sliding and barely touching contacts are common in steady
+               shear), so no lane is redone: the same bits as the scalar law;
       scatter  forces and torques added in list order. Pairs come sorted by their lower
                particle, so its sums stay in registers along its run of pairs: the same
                additions in the same order as f[i] += ... pair by pair, without a chain of
@@ -79,19 +78,8 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
             for c in range(n_hist):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
-            touching, flagged = lane_contact(work, ln, reach, prm.law, o, True)
+            touching, _ = lane_contact(work, ln, reach, prm.law, o, True)  # nothing deferred
             work[W_ACT * BATCH + ln] = 1.0 if touching else 0.0
-            work[W_REDO * BATCH + ln] = 1.0 if flagged else 0.0
-        # A plain loop over the lanes "if flagged" would be vectorised with every lane computed;
-        # through a list of lanes it stays scalar. (Loop names differ from the inlined
-        # callees' names: see jit.py.)
-        n_redo = 0
-        for ln in range(m):
-            if work[W_REDO * BATCH + ln] != 0.0:
-                work[W_LANE * BATCH + n_redo] = ln
-                n_redo += 1
-        for nr in range(n_redo):
-            lane_contact(work, int(work[W_LANE * BATCH + nr]), reach, prm.law, o, False)
         cur = np.uint64(pi[first])
         acc_x = sf[cur + cur]
         acc_y = sf[cur + cur + one]

@@ -259,10 +259,10 @@ def pair_eta(d, a, dv, w, eta, dt):
 # ----------------------------------------------------------------- the batched pair loop's lanes
 
 BATCH = 64  # pairs per batch of the force loop: its work rows stay in L1
-# Rows of the work array (each BATCH lanes): the inputs gathered per pair, the outputs, the
-# lanes to redo, then the history: W_HIST + c in, W_HIST + width + c out.
+# Rows of the work array (each BATCH lanes): the inputs gathered per pair, the outputs, then
+# the history: W_HIST + c in, W_HIST + width + c out.
 (W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_ACT, W_FX, W_FY, W_TI, W_TJ, W_FN, W_FTX,
- W_FTY, W_REDO, W_LANE, W_HIST) = range(19)
+ W_FTY, W_HIST) = range(17)
 
 
 @nb.njit(**INLINE)

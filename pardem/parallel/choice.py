@@ -3,10 +3,10 @@ requested by the user (``pardem run --cut``) or chosen.
 
 ``auto`` counts each candidate's ghosts on the free particles' positions (known to every rank at
 the start, so every rank makes the same choice) and takes the one whose busiest rank has the
-fewest, sectors on a tie (and sectors without counting on up to 3 ranks). A candidate is allowed only if every domain is at least one
-interaction reach wide, radially and along its arc at the ring's inner radius: a narrower
-domain would take as ghosts particles beyond its own particles' neighbours, and the ghosts
-would outnumber the owned particles.
+fewest, sectors on a tie (and sectors without counting on up to 3 ranks). A candidate is
+allowed only if every domain is at least one interaction reach wide, radially and along its arc
+at the ring's inner radius: a narrower domain would take as ghosts particles beyond its own
+particles' neighbours, and the ghosts would outnumber the owned particles.
 """
 
 from __future__ import annotations
@@ -44,13 +44,16 @@ def requested_rings(text: str, ranks: int) -> int | None:
                      f"2x4, their product the number of ranks)")
 
 
-def cut_for(x: np.ndarray, ranks: int, rings: int, r_top: float) -> ct.Cut:
+def cut_for(x: np.ndarray, ranks: int, rings: int, r_top: float, total=lambda h: h) -> ct.Cut:
     """``rings`` rings of sectors with about equal counts of the points x [n,2] (m) in every
-    domain (``r_top``: m, beyond every point; the radial histogram's range)."""
+    domain (``r_top``: m, beyond every point; the radial histogram's range). ``total``: each
+    histogram of x summed over the ranks (under MPI, where every rank holds part of the points;
+    the same cut on every rank)."""
     if rings == 1:
-        return ct.balanced(ct.angle_histogram(x, HIST_BINS), ranks)
-    radii = ct.ring_radii(ct.radius_histogram(x, r_top, HIST_BINS), r_top, rings)
-    return ct.balanced_rings(radii, ct.ring_histograms(x, radii, HIST_BINS), ranks // rings)
+        return ct.balanced(total(ct.angle_histogram(x, HIST_BINS)), ranks)
+    radii = ct.ring_radii(total(ct.radius_histogram(x, r_top, HIST_BINS)), r_top, rings)
+    return ct.balanced_rings(radii, total(ct.ring_histograms(x, radii, HIST_BINS)),
+                             ranks // rings)
 
 
 def narrowest(cut: ct.Cut, inner_radius: float, outer: float) -> float:
@@ -87,14 +90,12 @@ def choose(x: np.ndarray, ranks: int, requested: str, inner_radius: float, reach
     r_top = outer * (1.0 + 1e-9) + 1e-12
     if rings is not None:
         cut = cut_for(x, ranks, rings, r_top)
-        if rings == 1 and narrowest(cut, inner_radius, outer) < reach:
-            raise SceneError(too_many_ranks(ranks, inner_radius, reach))
-        if narrowest(cut, inner_radius, outer) < reach:
-            raise SceneError(
-                f"--cut {requested}: a domain would be "
-                f"{narrowest(cut, inner_radius, outer) * 1e3:.2f} mm wide, narrower than the "
-                f"interaction reach {reach * 1e3:.2f} mm (largest diameter + skin); use fewer "
-                f"rings or sectors")
+        width = narrowest(cut, inner_radius, outer)
+        if width < reach:
+            raise SceneError(too_many_ranks(ranks, inner_radius, reach) if rings == 1 else
+                             f"--cut {requested}: a domain would be {width * 1e3:.2f} mm wide, "
+                             f"narrower than the interaction reach {reach * 1e3:.2f} mm (largest "
+                             f"diameter + skin); use fewer rings or sectors")
         return cut, r_top
     sample = x[::max(1, -(-x.shape[0] // GHOST_SAMPLE))]
     best = None

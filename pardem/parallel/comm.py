@@ -1,5 +1,6 @@
 """Decomposition of the annulus under MPI (sectors, or rings of sectors: ``cut.py``): migration
-with contact history, ghost selection, balancing, and the gathers and reductions of output, diagnostics and averaging (mpi4py).
+with contact history, ghost selection, balancing, and the gathers and reductions of output,
+diagnostics and averaging (mpi4py).
 
 Stage: communication at exchanges (the neighbour builds that migrate particles and select
 ghosts) and at output times; the per-step ghost refresh is compiled into the step loop
@@ -32,7 +33,7 @@ from mpi4py import MPI
 from ..contact.history import NO_HISTORY
 from ..state import row_columns, row_width
 from . import cut as ct
-from .choice import HIST_BINS, choose
+from .choice import choose, cut_for
 from .comm_rows import sorted_rows
 from .exchange import ExchangePlan, exchange_rows
 from .halo import (GHOST_VALUES, HEADER, Halo, SharedWindow, halo_buffers, handles_of,
@@ -136,19 +137,13 @@ class Decomposition:
         counts = np.array(self.comm.allgather(x_owned.shape[0]))
         if ct.imbalance(counts) <= self.balance_threshold:
             return
-        rings = self.cut.rings
-        if rings == 1:
-            hist = ct.angle_histogram(x_owned, HIST_BINS)
-            self.comm.Allreduce(MPI.IN_PLACE, hist, op=MPI.SUM)
-            self.cut = ct.balanced(hist, self.size)
-        else:
-            hist = ct.radius_histogram(x_owned, self.r_top, HIST_BINS)
-            self.comm.Allreduce(MPI.IN_PLACE, hist, op=MPI.SUM)
-            radii = ct.ring_radii(hist, self.r_top, rings)
-            hists = ct.ring_histograms(x_owned, radii, HIST_BINS)
-            self.comm.Allreduce(MPI.IN_PLACE, hists, op=MPI.SUM)
-            self.cut = ct.balanced_rings(radii, hists, self.size // rings)
+        self.cut = cut_for(x_owned, self.size, self.cut.rings, self.r_top, self._summed)
         self.n_rebalanced += 1
+
+    def _summed(self, hist: np.ndarray) -> np.ndarray:
+        """An integer histogram summed over the ranks (in place)."""
+        self.comm.Allreduce(MPI.IN_PLACE, hist, op=MPI.SUM)
+        return hist
 
     # -- neighbour build -------------------------------------------------------------------
     def exchange_due(self, x_local: np.ndarray) -> bool:
@@ -219,9 +214,9 @@ class Decomposition:
                            wall_margin) -> tuple:
         """The arguments of ``exchange.exchange_rows`` for ``distribute``'s (also what
         ``compile_ahead`` compiles it for)."""
-        plan = ExchangePlan(self.cut.radii, self.cut.edges, self.rank, self.ghost_width, wall_margin,
-                            row_width(hist), row_columns(hist)["x"].start, self.shared_halo,
-                            ring_walls)
+        plan = ExchangePlan(self.cut.radii, self.cut.edges, self.rank, self.ghost_width,
+                            wall_margin, row_width(hist), row_columns(hist)["x"].start,
+                            self.shared_halo, ring_walls)
         return (ps, pairs, clock, counts, plan, hist > 0 and history is None,
                 history if history is not None else NO_HISTORY, t, prm, self._handles)
 
@@ -245,5 +240,6 @@ class Decomposition:
         return np.concatenate(parts) if parts else own_values[:0]
 
     def describe(self) -> str:
-        return (f"{self.size} ranks, {self.cut.describe()}, ghost width {self.ghost_width * 1e3:.2f} mm")
+        return (f"{self.size} ranks, {self.cut.describe()}, "
+                f"ghost width {self.ghost_width * 1e3:.2f} mm")
 
