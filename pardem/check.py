@@ -13,7 +13,7 @@ import math
 
 from .memory import needed_bytes, particle_count, size_text
 from .scene import Scene, scene_to_toml
-from .timestep import resolve_dt, smallest_contact_time, stability_limit
+from .timestep import off_step, resolve_step, smallest_contact_time, stability_limit
 from .walls import global_volume_fraction
 
 REFERENCE_RATE = 25e6
@@ -30,7 +30,8 @@ def volume_fraction(scene: Scene) -> float | None:
 
 def describe(scene: Scene) -> str:
     """The report ``pardem check`` prints (SceneError if the scene cannot run)."""
-    dt = resolve_dt(scene)  # also refuses ring speeds the contact law cannot follow
+    step = resolve_step(scene)  # also refuses ring speeds the contact law cannot follow
+    dt = float(step)
     t_c = smallest_contact_time(scene)
     n = scene.n_free
     steps = int(round(scene.time.end / dt))
@@ -42,6 +43,7 @@ def describe(scene: Scene) -> str:
              f"= t_c / {t_c / dt:.4g}",
              f"# stability limit dt <= {limit:.4g} s = t_c / {t_c / limit:.3g} (a fifth of the "
              f"half period of the stiffest mode, {mode}): dt is {limit / dt:.3g} x below it"]
+    lines.append(_output_times(scene, step))
     nu = volume_fraction(scene)
     if nu is not None:
         lines.append(f"# global volume fraction (free disks + half of each wall disk, at the "
@@ -54,6 +56,14 @@ def describe(scene: Scene) -> str:
     lines.append(f"# memory: about {size_text(needed_bytes(scene))} per rank at set-up "
                  f"({particle_count(scene)} particles with the wall disks)")
     return "\n".join(lines)
+
+
+def _output_times(scene: Scene, step) -> str:
+    off = off_step(scene, step)
+    if not off:
+        return "# output at exactly the times named (each a whole number of steps)"
+    return (f"# output times rounded to the nearest step: {', '.join(off)} not a whole number "
+            f"of steps of {float(step):.6g} s")
 
 
 def _duration(seconds: float) -> str:

@@ -51,7 +51,7 @@ def _groups(sim, history) -> list[list]:
 
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
     exchange = sim.decomp.exchange_arguments(ps, pairs, sim.clock, exchange_counts(sim.clock),
-                                             sim.hist, opts.walls, history, sim.time, prm,
+                                             sim.hist, opts.walls, history, sim.clock_time, prm,
                                              sim.wall_margin)
     f8, record = types.float64, types.boolean
     rotation, walls = types.literal(opts.rotation), types.literal(opts.walls)

@@ -32,7 +32,7 @@ def rebuild(sim, history=None, rebalance: bool = True, exchange: bool = True) ->
             from_list = False
             sim.pairs = new_pairs(max(count + count // 2, sim.pairs.i.size),
                                max(n_wall + n_wall // 2, sim.pairs.wall.size), sim.hist)
-        count, n_wall, history = build_lists(sim.ps, sim.pairs, sim.clock, sim.prm, sim.time,
+        count, n_wall, history = build_lists(sim.ps, sim.pairs, sim.clock, sim.prm, sim.clock_time,
                                              from_list, history, sim.options.walls)
     sim.n_rebuilds += 1
 
@@ -55,7 +55,7 @@ def migrate(sim, history, rebalance: bool):
     if rebalance:
         sim.decomp.rebalance(ps.x[:n_owned])
     written, moved, own, walls, ghosts, lists, history = sim.decomp.distribute(
-        ps, sim.pairs, clock, counts, hist, sim.options.walls, history, sim.time, sim.prm,
+        ps, sim.pairs, clock, counts, hist, sim.options.walls, history, sim.clock_time, sim.prm,
         sim.wall_margin)
     if not written:  # ps too small: store the rows in larger arrays
         rows = np.concatenate([own, walls, ghosts] if moved else
@@ -84,7 +84,7 @@ def order_walls(sim, idle: int) -> None:
     n_owned, n_local = int(clock.n_owned[0]), int(clock.n_local[0])
     plan = ExchangePlan(sim.decomp.cut.radii, sim.decomp.cut.edges, sim.decomp.rank, 0.0,
                         sim.wall_margin, row_width(sim.hist), 0, False, False)
-    n_near = arrange_walls(sim.ps, n_owned, n_local - idle, n_local, sim.time, sim.prm, plan)
+    n_near = arrange_walls(sim.ps, n_owned, n_local - idle, n_local, sim.clock_time, sim.prm, plan)
     clock.n_moving[0] = n_owned + n_near
 
 
@@ -94,4 +94,4 @@ def place_idle_walls(sim) -> None:
     where it is."""
     first, last = int(sim.clock.n_moving[0]), int(sim.clock.n_local[0])
     if last > first:
-        place_wall_disks(sim.ps, first, last, sim.time, sim.prm.rings, False)
+        place_wall_disks(sim.ps, first, last, sim.clock_time, sim.prm.rings, False)

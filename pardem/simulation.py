@@ -26,7 +26,8 @@ import numpy as np
 from .compile_ahead import compile_ahead
 from .contact.history import carry_history, live_history
 from .contact.model import history_columns, law_params, options_for
-from .output.progress import breakdown, end_progress, log_line, progress_line, show_progress
+from .output.progress import (breakdown, end_progress, log_line, progress_line, show_progress,
+                              start_notes)
 from .output.restart import gather_state, restore
 from .output.snapshots import write_snapshot
 from .output.checkpoint import save_checkpoint
@@ -42,7 +43,7 @@ from . import stop
 from .scene import Scene, SceneError, write_scene
 from .state import Params, new_clock, new_pairs
 from .step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
-from .timestep import resolve_dt
+from .timestep import resolve_step
 from .views import StateViews
 from .walls import rings_of, wall_layout
 
@@ -84,7 +85,8 @@ class Simulation(StateViews):
                  cut: str = "auto"):
         self.scene = scene
         self.out_dir = Path(out_dir) if out_dir is not None else None
-        self.dt = resolve_dt(scene)
+        self.step_length = resolve_step(scene)  # exact (s): the clock is step x this
+        self.dt = float(self.step_length)
         e, g = scene.effects, scene.geometry
         self.contact = options_for(e, scene.time.integrator, tracks_eta(scene, out_dir is not None))
         self.history_columns = history_columns(self.contact)
@@ -153,6 +155,13 @@ class Simulation(StateViews):
     # -- public state ----------------------------------------------------------------------
     @property
     def time(self) -> float:
+        """The time (s) output carries: the exact step count x step, correctly rounded."""
+        return float(int(self.clock.step[0]) * self.step_length)
+
+    @property
+    def clock_time(self) -> float:
+        """The time (s) the kernels move the rings by, step x dt in floating point (it may
+        differ from ``time`` in the last bit): the rings' position at a build must be theirs."""
         return float(self.clock.step[0] * self.dt)
 
     @property
@@ -270,14 +279,10 @@ class Simulation(StateViews):
                      f"{self.n_free} particles, dt = {self.dt:.6g} s, {self.decomp.describe()}")
             if snapshots.trigger.due(self.step):
                 self._timed("snapshots", self.write_snapshot)
-        cfg = self.scene.averaging
-        if self.rings is not None and cfg.end > end and root:  # said, not silently cut short
-            note = (f"note: [averaging] end = {cfg.end:g} s lies past this run's end {end:g} s: "
-                    f"the averages cover {cfg.start:g} s to {end:g} s" if cfg.start < end else
-                    f"note: [averaging] starts at {cfg.start:g} s, after this run's end {end:g} "
-                    "s: no ring averages")
-            self.log(note)
-            sys.stderr.write(f"pardem: {note}\n")
+        if root:  # said, not silently rounded or cut short
+            for note in start_notes(self.scene, self.step_length, end, self.rings is not None):
+                self.log(f"note: {note}")
+                sys.stderr.write(f"pardem: note: {note}\n")
         since = [time.perf_counter(), self.step]  # the last report's wall time and step
         signum = 0  # a signal received on any rank (pardem.stop)
         chunk, last_report = 1000, 0.0

@@ -1,6 +1,9 @@
 """Time step from the analytic contact time of the linear spring-dashpot (SPEC §3;
-contact.model.contact_time). The default step is t_c(smallest pair) / dt_per_contact; a step
-above t_c/5 is refused.
+contact.model.contact_time). The default step is t_c(smallest pair) / dt_per_contact, shortened
+by at most 1 % so that a whole number of steps fills a power of ten of a second (``time_quantum``):
+output asked for at multiples of it lands at exactly the times the scene names. A step above
+t_c/5 is refused. A run's clock is the step count times ``resolve_step``'s exact fraction of a
+second, so that 0.15 s prints as 0.15.
 
 The linear spring resolves a contact in time independently of the impact speed, but the overlap
 grows with it: a disk hit head-on by a wall moving at v overlaps it by up to v/omega_0 (omega_0
@@ -12,6 +15,7 @@ Units SI: N/m, kg/s, kg, s.
 from __future__ import annotations
 
 import math
+from fractions import Fraction
 
 import numpy as np
 
@@ -179,8 +183,46 @@ def stability_limit(scene: Scene) -> tuple[float, str]:
     return half / STEPS_PER_MODE, what
 
 
-def resolve_dt(scene: Scene) -> float:
-    """The run's time step (s): [time] dt, or t_c / dt_per_contact when dt = "auto".
+QUANTUM_STEPS = 100
+"""With dt = "auto" the step divides the time quantum, the power of ten that holds at least this
+many steps of t_c / dt_per_contact (10 ms for the paper's material): aligning costs at most 1 %
+more steps, and the step depends on the material only, never on the output settings (a restart
+with other intervals keeps its step)."""
+
+
+def _decimal(t: float) -> Fraction:
+    return Fraction(repr(float(t)))  # the value as written in the scene: 0.1 is 1/10
+
+
+def time_quantum(longest: float) -> Fraction:
+    """The smallest power of ten (s) of at least QUANTUM_STEPS steps of ``longest``."""
+    return Fraction(10) ** math.ceil(math.log10(QUANTUM_STEPS * longest))
+
+
+def output_times(scene: Scene) -> list[tuple[str, float]]:
+    """(key, s) of every time at which the scene asks for output."""
+    out, avg = scene.output, scene.averaging
+    keys = [("[time] end", scene.time.end),
+            ("[output] snapshot_interval", out.snapshot_interval),
+            ("[output] checkpoint_interval", out.checkpoint_interval)]
+    if avg is not None:
+        keys += [("[averaging] start", avg.start), ("[averaging] end", avg.end),
+                 ("[averaging] sample_interval", avg.sample_interval)]
+    return [(k, t) for k, t in keys if math.isfinite(t)]
+
+
+def off_step(scene: Scene, step: Fraction) -> list[str]:
+    """The output times of the scene that are not a whole number of steps ("key = value s"),
+    to a millionth of a step: these are rounded to the nearest step."""
+    dt = float(step)
+    return [f"{key} = {t:g} s" for key, t in output_times(scene)
+            if abs(t / dt - round(t / dt)) > 1e-6]
+
+
+def resolve_step(scene: Scene) -> Fraction:
+    """The run's time step as an exact fraction of a second: [time] dt as written, or with dt =
+    "auto" the time quantum over the fewest whole steps no longer than t_c / dt_per_contact, so
+    that output at any multiple of the quantum lands on a step and its time prints exactly.
 
     Raises SceneError when dt exceeds ``stability_limit`` (five steps per half period of the
     stiffest enabled contact mode: for frictional disks the sticking tangential spring with
@@ -189,7 +231,13 @@ def resolve_dt(scene: Scene) -> float:
     """
     check_wall_speeds(scene)
     t_c = smallest_contact_time(scene)
-    dt = scene.time.dt if scene.time.dt is not None else t_c / scene.time.dt_per_contact
+    if scene.time.dt is not None:
+        step = _decimal(scene.time.dt)
+    else:
+        longest = t_c / scene.time.dt_per_contact
+        quantum = time_quantum(longest)
+        step = quantum / math.ceil(quantum / Fraction(longest))
+    dt = float(step)
     check_free_speeds(scene, dt)
     limit, what = stability_limit(scene)
     if dt > limit:
@@ -200,4 +248,9 @@ def resolve_dt(scene: Scene) -> float:
             f"(pi/omega)/{STEPS_PER_MODE:g} of the stiffest contact mode, {what} (pi/omega = "
             f"{STEPS_PER_MODE * limit:.4g} s); use dt <= {limit:.4g} s, i.e. dt_per_contact >= "
             f"{t_c / limit:.3g} (t_c = {t_c:.4g} s)")
-    return dt
+    return step
+
+
+def resolve_dt(scene: Scene) -> float:
+    """``resolve_step`` as a float (s)."""
+    return float(resolve_step(scene))

@@ -37,12 +37,12 @@ class StateViews:
         e = diag.elastic_energy_pairs(self.ps, self.pairs, self.prm, self.contact, n_owned)
         if self.options.walls:
             e += diag.elastic_energy_rings(self.ps, self.pairs, self.prm, self.contact,
-                                           outer_radius(self.time, self.prm.rings)[0])
+                                           outer_radius(self.clock_time, self.prm.rings)[0])
         return self.kinetic_energy() + float(self.decomp.sum(e))
 
     def max_overlap(self) -> float:
         """Largest overlap over the diameter of the smaller free particle in the contact."""
-        r_out = outer_radius(self.time, self.prm.rings)[0]
+        r_out = outer_radius(self.clock_time, self.prm.rings)[0]
         return float(self.decomp.max(diag.max_overlap_ratio(self.ps, self.pairs, self.prm,
                                                             r_out)))
 
@@ -56,7 +56,7 @@ class StateViews:
         rings = None
         if self.options.walls:
             rings = diag.ring_contact_table(self.ps, self.pairs, self.prm, self.contact,
-                                            outer_radius(self.time, self.prm.rings)[0])
+                                            outer_radius(self.clock_time, self.prm.rings)[0])
         return LocalTables(pairs, rings)
 
     def local_view(self):

@@ -29,7 +29,7 @@ def test_head_on_converges_to_analytic(d, m, tc_spec, e_spec):
     tc, e = analytic_collision(m / 2)
     assert tc == pytest.approx(tc_spec, abs=0.5e-6) and e == pytest.approx(e_spec, abs=0.5e-4)
     sim = two_disks(d, m, "auto")[0]
-    assert sim.dt == pytest.approx(tc / 50, rel=1e-12)
+    assert 0.99 * tc / 50 <= sim.dt <= tc / 50  # t_c/50, shortened to divide 10 ms
     et, ee = errors(d, m, "auto")  # default dt = t_c/50: within 5 % for every entry phase
     print(f"\n d = {d}: dt = t_c/50: max |err t_c| {abs(et).max():.2e}, max |err e_n| "
           f"{abs(ee).max():.2e}")
@@ -102,7 +102,7 @@ def wall_setup(target: str, dt="auto"):
 def test_wall_collision_restitution_infinite_mass_partner(target):
     tc, e = analytic_collision(M_SMALL)  # m_red = m for an infinitely massive partner
     sim, ov, vr = wall_setup(target)
-    assert sim.dt == pytest.approx(tc / 50, rel=1e-12)  # one disk: the smallest pair is disk-wall
+    assert 0.99 * tc / 50 <= sim.dt <= tc / 50  # one disk: the smallest pair is disk-wall
     tcm, em = measure(sim, ov, vr)
     assert abs(tcm / tc - 1) < 0.05 and abs(em / e - 1) < 0.05
     tcf, ef = measure(*wall_setup(target, dt=tc / 2000))

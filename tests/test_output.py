@@ -66,6 +66,20 @@ def test_hdf5_snapshot_holds_the_in_memory_state(run):
     assert len(list((out / "snapshots").iterdir())) == 6
 
 
+def test_output_lands_at_the_exact_times_the_scene_names(run):
+    """Snapshots every 0.05 s, ring samples every 0.05 s from 0.1 s, the end at 0.22 s: each
+    stored time is the double nearest to that decimal (0.15, not 0.1499999...), in the
+    snapshot files, the XDMF index, rings.h5 and the checkpoint."""
+    out = run[0]
+    want = [0.0, 0.05, 0.1, 0.15, 0.2, 0.22]
+    assert [s["time"] for s in pardem.read_snapshots(out)] == want
+    index = [float(g.find("Time").get("Value")) for g in xdmf_grids(out / "particles.xdmf")]
+    assert index == want
+    assert read_rings(out)["times"].tolist() == [0.1, 0.15, 0.2]
+    with h5py.File(out / "checkpoint.h5") as h5:
+        assert h5.attrs["time"] == 0.22
+
+
 def test_particles_xdmf_reads_back_in_pyvista_and_meshio(run):
     pv = pytest.importorskip("pyvista")
     out, state, _, _ = run

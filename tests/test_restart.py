@@ -149,3 +149,15 @@ def test_averaging_past_the_run_end_is_said(tmp_path, capsys):
     note = ("[averaging] end = 0.3 s lies past this run's end 0.15 s: the averages cover "
             "0.1 s to 0.15 s")
     assert note in capsys.readouterr().err and note in (tmp_path / "log.txt").read_text()
+
+
+def test_an_output_time_off_the_step_is_said(tmp_path, capsys):
+    """Snapshots every 0.0123 s: 282.9 steps of 10 ms / 230; rounded, and said so."""
+    scene = small_cell()
+    scene = dataclasses.replace(scene, output=dataclasses.replace(scene.output,
+                                                                  snapshot_interval=0.0123))
+    sim = Simulation(scene, out_dir=tmp_path)
+    sim.run(end=0.02, progress=False)
+    note = ("[output] snapshot_interval = 0.0123 s not a whole number of steps of 4.34783e-05 "
+            "s: rounded to the nearest step")
+    assert note in capsys.readouterr().err and note in (tmp_path / "log.txt").read_text()

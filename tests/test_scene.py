@@ -5,6 +5,8 @@ from __future__ import annotations
 import copy
 import math
 import re
+import tomllib
+from fractions import Fraction
 from pathlib import Path
 
 import h5py
@@ -21,11 +23,15 @@ from pardem.scene import (
     write_scene,
 )
 from pardem.contact.model import restitution
+from pardem.check import describe
 from pardem.timestep import (
     contact_time,
+    off_step,
     resolve_dt,
+    resolve_step,
     smallest_contact_time,
     smallest_reduced_mass,
+    time_quantum,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -451,7 +457,41 @@ def test_resolve_dt_shipped_b():
     t_c = math.pi / math.sqrt(352.1 / m_red - eta**2)  # hand formula, SPEC §3
     assert t_c == pytest.approx(2.177e-3, rel=1e-3)
     assert smallest_contact_time(s) == pytest.approx(t_c, rel=1e-12)
-    assert resolve_dt(s) == pytest.approx(t_c / 50, rel=1e-12)
+    # the step divides the time quantum, the power of ten of at least 100 steps of t_c/50
+    # (4.35 ms: 10 ms), into the fewest steps no longer than t_c/50
+    n = math.ceil(0.01 / (t_c / 50))
+    assert n == 230
+    assert resolve_step(s) == Fraction(1, 100 * n)
+    assert resolve_dt(s) == pytest.approx(t_c / 50, rel=0.01)
+
+
+@pytest.mark.parametrize("longest, quantum", [(4.353e-5, Fraction(1, 100)),
+                                              (1e-4, Fraction(1, 100)),
+                                              (1.01e-4, Fraction(1, 10)),
+                                              (3e-9, Fraction(1, 10**6))])
+def test_the_time_quantum_is_a_power_of_ten_of_at_least_100_steps(longest, quantum):
+    assert time_quantum(longest) == quantum
+
+
+def test_output_times_off_the_step_are_named_and_rounded():
+    """B's output times (239 s, 1 s, 10 s, 180 s, 0.1 s) are whole numbers of 10 ms / 230
+    steps; 0.3333333 s is not; with an explicit dt of 3e-5 s only 180 s is."""
+    d = tomllib.loads((ROOT / "run_scripts" / "couette_B.toml").read_text())
+    b = scene_from_dict(d)
+    assert off_step(b, resolve_step(b)) == []
+    assert "output at exactly the times named" in describe(b)
+    odd = scene_from_dict(mutate(d, "output.snapshot_interval", 0.3333333))
+    assert resolve_step(odd) == resolve_step(b)  # output settings never change the step
+    assert off_step(odd, resolve_step(odd)) == ["[output] snapshot_interval = 0.333333 s"]
+    assert "rounded to the nearest step: [output] snapshot_interval" in describe(odd)
+    explicit = scene_from_dict(mutate(d, "time.dt", 3e-5))
+    assert resolve_step(explicit) == Fraction(3, 100000)
+    assert off_step(explicit, resolve_step(explicit)) == [  # only 180 s is whole (6e6 steps)
+        "[time] end = 239 s", "[output] snapshot_interval = 1 s",
+        "[output] checkpoint_interval = 10 s", "[averaging] end = 239 s",
+        "[averaging] sample_interval = 0.1 s"]
+    assert off_step(*(lambda s: (s, resolve_step(s)))(scene_from_dict(mutate(d, "time.dt",
+                                                                             4e-5)))) == []
 
 
 def test_the_step_is_limited_by_the_stiffest_enabled_contact_mode():
@@ -477,10 +517,11 @@ def test_the_step_is_limited_by_the_stiffest_enabled_contact_mode():
     assert resolve_dt(scene(**{"time.dt": 2.6e-4})) == 2.6e-4
     with pytest.raises(SceneError, match=r"\[time\] dt = 0.000261: dt exceeds"):
         resolve_dt(scene(**{"time.dt": 2.61e-4}))
-    with pytest.raises(SceneError, match=r"\[time\] dt_per_contact = 6 \(dt = 0.0003628 s\)"):
+    # t_c/6 = 0.36276 ms, shortened to divide the 0.1 s quantum: 0.1 s / 276
+    with pytest.raises(SceneError, match=r"\[time\] dt_per_contact = 6 \(dt = 0.0003623 s\)"):
         resolve_dt(scene(**{"time.dt_per_contact": 6}))
-    assert resolve_dt(scene(**{"time.dt_per_contact": 8.5})) == pytest.approx(2.1765e-3 / 8.5,
-                                                                             rel=1e-4)
+    assert resolve_dt(scene(**{"time.dt_per_contact": 8.5})) == pytest.approx(0.1 / 391,
+                                                                             rel=1e-12)
     # rolling spring between two equal disks: a' = a/2, I = m a^2/2, omega^2 = k_r/m (the
     # small pair is the stiffest pair: small-large gives 0.83 k_r/m_small); against the flat
     # ring surface a' = a and the ring does not turn: omega^2 = 2 k_r/m_small, stiffer still.
@@ -588,17 +629,17 @@ def test_overlap_check_with_a_few_much_larger_disks_equals_brute_force():
 
 
 def test_a_free_disk_that_would_skip_a_partner_in_one_step_is_refused():
-    """Half a diameter per step at most: dt = t_c/50 = 4.353e-5 s for two small disks, so
-    0.5 x 7.42e-3 / 4.353e-5 = 85.2 m/s (velocity plus spin at the rim); vx = 1e200 overflowed
-    the neighbour search. Huge masses at small speeds stay allowed (kinematic test setups)."""
+    """Half a diameter per step at most: dt = 10 ms / 230 = 4.348e-5 s for two small disks
+    (t_c/50 = 4.353e-5 s shortened to divide 10 ms), so 0.5 x 7.42e-3 / 4.348e-5 = 85.3 m/s
+    (velocity plus spin at the rim); vx = 1e200 overflowed the neighbour search. Huge masses at small speeds stay allowed (kinematic test setups)."""
     d = free_dict()
     ok = scene_from_dict(mutate(d, "particles.1.vx", -85.0))
-    assert resolve_dt(ok) == pytest.approx(2.1765e-3 / 50, rel=1e-4)
+    assert 0.99 * 2.1765e-3 / 50 <= resolve_dt(ok) <= 2.1765e-3 / 50
     for path, value, speed in (("particles.1.vx", 1e200, "1e+200"),
-                               ("particles.1.vx", -85.3, "85.3"),
+                               ("particles.1.vx", -85.4, "85.4"),
                                ("particles.1.omega", 23000.0, "85.4")):  # 0.05 + 23000 a
         message = (rf"\[\[particles\]\] #1: moves at {re.escape(speed)} m/s .*it could pass "
-                   r"through another disk between two steps; at most 85.2 m/s at this dt")
+                   r"through another disk between two steps; at most 85.3 m/s at this dt")
         with pytest.raises(SceneError, match=message):
             resolve_dt(scene_from_dict(mutate(d, path, value)))
     heavy = mutate(mutate(d, "particles.0.mass", 1e9), "particles.1.mass", 1e9)

@@ -15,6 +15,7 @@ files (pardem before the contact-model slots) are read too. The file is written 
 
 from __future__ import annotations
 
+import math
 import os
 from pathlib import Path
 
@@ -88,7 +89,8 @@ LAYOUT = {"gid": ("n", ()), "kind": ("n", ()), "x": ("n", (2,)), "v": ("n", (2,)
 
 def _check_layout(path, arrays: dict[str, np.ndarray], attrs: dict[str, object]) -> None:
     """Every dataset numeric, of its documented shape and row count; the step a non-negative
-    integer with time = step * dt: a hand-edited or damaged file is refused by name."""
+    integer with time = step * dt (to rounding: the time is the exact step count times the
+    step as a fraction, dt its float): a hand-edited or damaged file is refused by name."""
     for key in ("gid", "pair_lo", "force_lo"):  # the row counts come from these
         if np.ndim(arrays[key]) != 1:
             raise SceneError(f"--restart {path}: corrupted checkpoint: {key} has shape "
@@ -108,7 +110,7 @@ def _check_layout(path, arrays: dict[str, np.ndarray], attrs: dict[str, object])
                              f"{a.shape} of {a.dtype}, expected ({rows[count][0]}, columns)")
     step, dt, time = attrs["step"], attrs["dt"], attrs["time"]
     if not (isinstance(step, (int, np.integer)) and step >= 0 and np.isfinite(dt) and dt > 0
-            and time == step * dt):
+            and math.isclose(time, step * dt, rel_tol=1e-12)):
         raise SceneError(f"--restart {path}: corrupted checkpoint: step {step}, dt {dt} s and "
                          f"time {time} s do not agree (time = step x dt, step >= 0)")
 

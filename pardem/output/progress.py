@@ -11,6 +11,8 @@ import sys
 import time
 from pathlib import Path
 
+from ..timestep import off_step
+
 
 def log_line(out_dir: Path | None, text: str) -> None:
     """Append a time-stamped line to out_dir/log.txt (nothing without a folder)."""
@@ -20,6 +22,23 @@ def log_line(out_dir: Path | None, text: str) -> None:
     out_dir.mkdir(parents=True, exist_ok=True)
     with open(out_dir / "log.txt", "a") as f:
         f.write(f"{stamp} {text}\n")
+
+
+def start_notes(scene, step_length, end: float, averaging: bool) -> list[str]:
+    """What a run rounds or leaves out of what the scene asks for: output times that are not
+    a whole number of steps, an [averaging] window past the run's end."""
+    notes = []
+    off = off_step(scene, step_length)
+    if off:
+        notes.append(f"{', '.join(off)} not a whole number of steps of "
+                     f"{float(step_length):.6g} s: rounded to the nearest step")
+    cfg = scene.averaging
+    if averaging and cfg.end > end:
+        notes.append(f"[averaging] end = {cfg.end:g} s lies past this run's end {end:g} s: the "
+                     f"averages cover {cfg.start:g} s to {end:g} s" if cfg.start < end else
+                     f"[averaging] starts at {cfg.start:g} s, after this run's end {end:g} s: "
+                     "no ring averages")
+    return notes
 
 
 def progress_line(sim, elapsed: float, steps: int, end_step: int, e_kin: float,

@@ -61,7 +61,7 @@ def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
     arrays["force_lo"], arrays["force_hi"] = np.ascontiguousarray(forces["key"].T)
     arrays["pair_force"] = forces["force"]
     attrs = {"step": int(sim.clock.step[0]), "time": sim.time, "dt": sim.dt,
-             "ring_angle": sim.prm.rings.omega_in * sim.time,
+             "ring_angle": sim.prm.rings.omega_in * sim.clock_time,
              "fingerprint": sim.scene.fingerprint(), "n_free": sim.n_free, "ranks": d.size,
              "scene_physics": json.dumps(sim.scene.physics(), sort_keys=True),
              "history_columns": ",".join(sim.history_columns)}
