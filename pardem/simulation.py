@@ -160,8 +160,7 @@ class Simulation(StateViews):
 
     @property
     def clock_time(self) -> float:
-        """The time (s) the kernels move the rings by, step x dt in floating point (it may
-        differ from ``time`` in the last bit): the rings' position at a build must be theirs."""
+        """The kernels' time (s), step x dt in floating point (``time`` to the last bit)."""
         return float(self.clock.step[0] * self.dt)
 
     @property
@@ -399,4 +398,3 @@ class Simulation(StateViews):
         state = self.checkpoint_state()
         if state is not None:
             save_checkpoint(path or self.out_dir / "checkpoint.h5", *state)
-
