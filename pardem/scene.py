@@ -179,8 +179,9 @@ class Effects:
 class TimeCfg:
     """``[time]``: dt (s, or "auto" = None: t_c(smallest pair) / dt_per_contact, shortened by
     at most 1 % to divide a power of ten of a second, 10 ms for the paper's material, so that
-    output at multiples of it lands at exactly the times named; default auto), dt_per_contact (>= 5, default 50), end (s, 239.0), integrator ("verlet": velocity Verlet
-    whose velocity-dependent forces use the velocity predicted at the new step, v + dt/2 a,
+    output at multiples of it lands at exactly the times named; default auto), dt_per_contact
+    (>= 5, default 50), end (s, 239.0), integrator ("verlet": velocity Verlet whose
+    velocity-dependent forces use the velocity predicted at the new step, v + dt/2 a,
     with the damping of a contact that starts or ends within a step weighted by its in-contact
     fraction (default); "verlet-halfstep": plain velocity Verlet with the half-step velocity
     in those forces and no weighting, as in LAMMPS GRANULAR; docs/accuracy.md compares them).
