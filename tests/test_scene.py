@@ -631,7 +631,8 @@ def test_overlap_check_with_a_few_much_larger_disks_equals_brute_force():
 def test_a_free_disk_that_would_skip_a_partner_in_one_step_is_refused():
     """Half a diameter per step at most: dt = 10 ms / 230 = 4.348e-5 s for two small disks
     (t_c/50 = 4.353e-5 s shortened to divide 10 ms), so 0.5 x 7.42e-3 / 4.348e-5 = 85.3 m/s
-    (velocity plus spin at the rim); vx = 1e200 overflowed the neighbour search. Huge masses at small speeds stay allowed (kinematic test setups)."""
+    (velocity plus spin at the rim); vx = 1e200 overflowed the neighbour search. Huge masses
+    at small speeds stay allowed (kinematic test setups)."""
     d = free_dict()
     ok = scene_from_dict(mutate(d, "particles.1.vx", -85.0))
     assert 0.99 * 2.1765e-3 / 50 <= resolve_dt(ok) <= 2.1765e-3 / 50
