@@ -13,7 +13,7 @@ import math
 
 from .memory import needed_bytes, particle_count, size_text
 from .scene import Scene, scene_to_toml
-from .timestep import off_step, resolve_step, smallest_contact_time, stability_limit
+from .timestep import off_step_text, resolve_step, smallest_contact_time, stability_limit
 from .walls import global_volume_fraction
 
 REFERENCE_RATE = 25e6
@@ -59,11 +59,9 @@ def describe(scene: Scene) -> str:
 
 
 def _output_times(scene: Scene, step) -> str:
-    off = off_step(scene, step)
-    if not off:
-        return "# output at exactly the times named (each a whole number of steps)"
-    return (f"# output times rounded to the nearest step: {', '.join(off)} not a whole number "
-            f"of steps of {float(step):.6g} s")
+    off = off_step_text(scene, step)
+    return (f"# output times rounded to the nearest step: {off}" if off else
+            "# output at exactly the times named (each a whole number of steps)")
 
 
 def _duration(seconds: float) -> str:

@@ -219,6 +219,13 @@ def off_step(scene: Scene, step: Fraction) -> list[str]:
             if abs(t / dt - round(t / dt)) > 1e-6]
 
 
+def off_step_text(scene: Scene, step: Fraction) -> str | None:
+    """``off_step`` as words ("key = value s, ... not a whole number of steps of dt s"), None
+    if every output time is a whole number of steps."""
+    off = off_step(scene, step)
+    return f"{', '.join(off)} not a whole number of steps of {float(step):.6g} s" if off else None
+
+
 def resolve_step(scene: Scene) -> Fraction:
     """The run's time step as an exact fraction of a second: [time] dt as written, or with dt =
     "auto" the time quantum over the fewest whole steps no longer than t_c / dt_per_contact, so

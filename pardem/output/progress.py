@@ -11,7 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..timestep import off_step
+from ..timestep import off_step_text
 
 
 def log_line(out_dir: Path | None, text: str) -> None:
@@ -28,10 +28,9 @@ def start_notes(scene, step_length, end: float, averaging: bool) -> list[str]:
     """What a run rounds or leaves out of what the scene asks for: output times that are not
     a whole number of steps, an [averaging] window past the run's end."""
     notes = []
-    off = off_step(scene, step_length)
+    off = off_step_text(scene, step_length)
     if off:
-        notes.append(f"{', '.join(off)} not a whole number of steps of "
-                     f"{float(step_length):.6g} s: rounded to the nearest step")
+        notes.append(f"{off}: rounded to the nearest step")
     cfg = scene.averaging
     if averaging and cfg.end > end:
         notes.append(f"[averaging] end = {cfg.end:g} s lies past this run's end {end:g} s: the "
