@@ -8,9 +8,11 @@ cache), the force loop and the ring contacts (``forces``), and the step loop aro
 (``step.make_stepper``'s ``advance``, with the ghost refresh it calls); after a barrier each
 rank loads the other's from numba's disk cache when it first calls them. The small kernels
 that a run would otherwise compile after its first step, on every rank at once, are shared the
-same way: the ring sums of in-situ averaging and the touching-pair test of the contact tables
-on rank 0; the progress line's diagnostics, the ring-contact test and the exchange test
-(``cut.largest_move``) on rank 1. With a warm cache
+same way, most of them on rank 1, since the migration alone takes rank 0 almost as long as
+rank 1's list: the progress line's diagnostics, the ring-contact test and the exchange test
+(``cut.largest_move``) first, the ring sums of in-situ averaging last; the touching-pair test of
+the contact tables on rank 0 (``run_scripts/compile_times.py`` measures the balance). With a
+warm cache
 each ``compile`` only loads. The signatures are those of the calls that follow
 (``numba.typeof`` of the same arguments; inside the step loop the switches are literals; the
 step loop's refresh plan is an empty one of the same types): a mismatch would cost only a
@@ -61,34 +63,36 @@ def _groups(sim, history) -> list[list]:
     lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False, NO_HISTORY, True))
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
     plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
-    first, second = _first_step(sim, state, f8)
+    after_migration, early, late = _first_step(sim, state, f8)
     return [
-        [(exchange_rows, tuple(nb.typeof(a) for a in exchange))] + first,
-        second + [(_refresh_plan, plan), (build_lists, lists),
+        [(exchange_rows, tuple(nb.typeof(a) for a in exchange))] + after_migration,
+        early + [(_refresh_plan, plan), (build_lists, lists),
          (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
                                    nb.typeof(np.zeros(1)), record)),
          (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record)),
-         (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))],
+         (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))]
+        + late,
     ]
 
 
-def _first_step(sim, state, f8) -> tuple[list, list]:
+def _first_step(sim, state, f8) -> tuple[list, list, list]:
     """The kernels of the output, averaging and exchange test (compiled lazily otherwise, all
-    ranks at once): a share for rank 0 and one for rank 1."""
+    ranks at once): rank 0's share, and rank 1's before and after the kernels rank 0 needs from
+    it."""
     from . import diagnostics as diag
     from .parallel.cut import largest_move
 
     n, prm = types.int64, nb.typeof(sim.prm)
     positions = nb.typeof(sim.ps.x[:1])  # the contiguous leading rows, as exchange_due passes
-    first = [(diag.touching_pairs, state + (n,))]
+    late = []
     if sim.rings is not None:
         from averaging.sample import empty_sample
         from averaging.sums import accumulate
 
         sums = sim.rings.sum_arguments(empty_sample())
-        first.append((accumulate, tuple(nb.typeof(a) for a in sums)))
-    second = [(diag.kinetic_energy, (state[0], n)), (diag.max_overlap_ratio, state + (prm, f8)),
-              (largest_move, (positions, positions))]
+        late.append((accumulate, tuple(nb.typeof(a) for a in sums)))
+    early = [(diag.kinetic_energy, (state[0], n)), (diag.max_overlap_ratio, state + (prm, f8)),
+             (largest_move, (positions, positions))]
     if sim.options.walls:
-        second.append((diag.touching_rings, state + (prm, f8)))
-    return first, second
+        early.append((diag.touching_rings, state + (prm, f8)))
+    return [(diag.touching_pairs, state + (n,))], early, late

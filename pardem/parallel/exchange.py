@@ -290,8 +290,12 @@ def _refresh_plan(x_own, ghost_key, e, rank, ghost_width):
         send_off[q + 1] = send_off[q] + n_send[nbr[q]]
         recv_off[q + 1] = recv_off[q] + n_recv[nbr[q]]
     send_idx = np.empty(send_off[nbr.size], np.int64)
-    for q in range(nbr.size):
-        send_idx[send_off[q]:send_off[q + 1]] = np.flatnonzero(send[nbr[q]])
+    k = 0
+    for q in range(nbr.size):  # element by element: see jit.copy_values
+        for p in range(x_own.shape[0]):
+            if send[nbr[q], p]:
+                send_idx[k] = p
+                k += 1
     return nbr, send_idx, send_off, recv_off
 
 
