@@ -18,8 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .scene import Scene, SceneError
-from .state import (FREE, INNER_WALL, OUTER_WALL, ROW_ROOM, Particles, new_particles, packed,
-                    unpack_particles)
+from .state import FREE, INNER_WALL, OUTER_WALL, ROW_ROOM, Particles, new_particles
 from .walls import wall_disk_angles, wall_layout
 
 
@@ -146,19 +145,19 @@ def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None,
     return arrays
 
 
-def rank_share(init: Initial, whole: Particles | None, decomp, hist: int):
-    """This rank's rows, [its sector's free particles | every wall disk] in gid order, how many
-    are free and how many rows there are: the annulus is cut first (``decomp.place_cut``,
-    from every free particle's position). From ``whole`` (the whole cell's arrays, a
-    restart's) if given, else built from ``init`` for these rows alone. Under MPI the arrays
-    have room (``ROW_ROOM``) for the ghosts and arrivals of the first exchange."""
-    x_free = (whole if whole is not None else init).x[:init.n_free]
+def share_rows(n: int, x_free: np.ndarray, decomp) -> tuple[np.ndarray, int, int]:
+    """This rank's rows of a cell of ``n`` particles: [its sector's free particles | every wall
+    disk] as gids, ascending; how many are free; the arrays' capacity (under MPI with room,
+    ``ROW_ROOM``, for the ghosts and arrivals of the first exchange). The annulus is cut first
+    (``decomp.place_cut``, from every free particle's position ``x_free``)."""
     decomp.place_cut(x_free)
     mine = np.flatnonzero(decomp.cut.owner(x_free) == decomp.rank)
-    idx = np.concatenate([mine, np.arange(init.n_free, init.radius.size)])
-    capacity = int(ROW_ROOM * idx.size) if decomp.parallel else idx.size
-    if whole is None:
-        return cell_rows(init, hist, idx, capacity), mine.size, idx.size
-    ps = new_particles(capacity, hist)
-    unpack_particles(packed(whole, idx, hist), ps, 0)
-    return ps, mine.size, idx.size
+    idx = np.concatenate([mine, np.arange(x_free.shape[0], n)])
+    return idx, mine.size, int(ROW_ROOM * idx.size) if decomp.parallel else idx.size
+
+
+def rank_share(init: Initial, decomp, hist: int):
+    """This rank's particle arrays of a fresh start (``share_rows``), built for these rows
+    alone, how many rows are free and how many there are."""
+    idx, n_mine, capacity = share_rows(init.radius.size, init.x[:init.n_free], decomp)
+    return cell_rows(init, hist, idx, capacity), n_mine, idx.size

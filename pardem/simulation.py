@@ -36,7 +36,7 @@ from .output.averages import make_averager, resume, sample_grid
 from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
 from .memory import check_memory
-from .placement import cell_rows, initial_configuration, rank_share
+from .placement import initial_configuration, rank_share
 from .neighbors import WALL_SKINS
 from .rebuild import place_idle_walls, rebuild, rebuild_on_request
 from . import stop
@@ -113,17 +113,15 @@ class Simulation(StateViews):
         self.decomp = decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
                                     g.inner_radius if g else 0.0,
                                     margin=GHOST_MARGIN_SKINS * skin, cut=cut)
-        # a restart reads the whole cell (every rank gets the checkpoint's arrays); a fresh
-        # start builds only this rank's rows, below
-        ps = cell_rows(init, self.hist) if restart is not None else None
         self.clock = new_clock(init.n_free, init.radius.size, self.prm.rings.r_out0)
         # the in-situ averager ([averaging] table; None without), kept across run() calls
         self.rings = make_averager(scene, self._free_radii, self.decomp)
         history, recorded = None, None
-        if restart is not None:
-            self.clock.step[0], history, recorded, averages = restore(
-                restart, ps, scene, self.dt, self.history_columns, self.decomp, self.log)
-            resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
+        if restart is not None:  # each rank reads its own rows only
+            got = restore(restart, init, scene, self.dt, self.history_columns, self.decomp,
+                          self.log)
+            self.clock.step[0], history, recorded = got.step, got.history, got.forces
+            resume(self.rings, scene, self.dt, self.step, got.averages, restart, self.log)
         self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
         self._claimed = None  # run files present when the folder was claimed (first run only)
         if self.out_dir is not None:  # claimed under the folder's lock, released after
@@ -135,9 +133,10 @@ class Simulation(StateViews):
                 self.folder_lock.release()
             if removed:
                 self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
-        self.ps, n_owned, n = rank_share(init, ps, self.decomp, self.hist)
+        self.ps, n_owned, n = (rank_share(init, self.decomp, self.hist) if restart is None
+                               else (got.ps, got.n_owned, got.n_rows))
         wall_radius = float(init.radius[init.n_free:].max(initial=0.0))
-        del ps, init  # the whole cell's arrays: not kept
+        del init  # the whole cell's arrays: not kept
         self.clock.n_owned[0] = n_owned
         self.clock.n_local[0] = n
         self.clock.n_moving[0] = n  # every wall disk is at time t: none idle yet
@@ -220,15 +219,16 @@ class Simulation(StateViews):
         self.stepper.compute_forces(self.ps, self.pairs, self.clock, self.prm, self.decomp.halo,
                                     self.decomp.max(v2))
 
-    def _put_recorded_forces(self, lo, hi, pair_force, ring_force) -> None:
-        """A checkpoint's applied forces into the new lists (output right after a restart)."""
+    def _put_recorded_forces(self, lo, hi, pair_force, ring_gid, ring_force) -> None:
+        """A checkpoint's applied forces into the new lists (output right after a restart):
+        pairs by key, ring contacts by gid (``ring_gid`` ascending)."""
         count, pairs = int(self.pairs.count[0]), self.pairs
         rows = np.zeros((count, 3))
         carry_history(lo, hi, np.asarray(pair_force, float).reshape(-1, 3), self.ps.gid,
                       pairs.i, pairs.j, rows)
         pairs.fn[:count], pairs.ft[:count] = rows[:, 0], rows[:, 1:]
         q = pairs.wall[:pairs.wall_count[0]]
-        ring = np.asarray(ring_force, float)[self.ps.gid[q]]
+        ring = np.asarray(ring_force, float)[np.searchsorted(ring_gid, self.ps.gid[q])]
         pairs.wall_fn[:q.size], pairs.wall_ft[:q.size] = ring[:, 0], ring[:, 1:]
 
     # -- neighbour lists ----------------------------------------------------------------------

@@ -22,7 +22,12 @@ def small_cell(**geometry):
                                                               "snapshot_interval": 0.05})
 
 
-def test_restart_reproduces_uninterrupted_run_bitwise(tmp_path):
+@pytest.mark.parametrize("chunk", [None, 7])
+def test_restart_reproduces_uninterrupted_run_bitwise(tmp_path, monkeypatch, chunk):
+    """Also with the checkpoint read 7 rows at a time (``restart.CHUNK_ROWS``), so that the
+    shares and pair tables are put together from many chunks and partial ones."""
+    if chunk is not None:
+        monkeypatch.setattr("pardem.output.restart.CHUNK_ROWS", chunk)
     scene = small_cell()
     ref = Simulation(scene, out_dir=tmp_path / "ref")
     ref.run(end=0.15, progress=False)

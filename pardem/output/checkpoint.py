@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import math
 import os
+from contextlib import contextmanager
 from pathlib import Path
 
 import h5py
@@ -44,15 +45,24 @@ def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
     os.replace(tmp, path)
 
 
-def load_checkpoint(path: str | os.PathLike) -> tuple[dict[str, np.ndarray], dict[str, object]]:
-    """``(arrays, attrs)`` of a checkpoint; attrs["history_columns"] as a tuple of names."""
+def checkpoint_file(path: str | os.PathLike) -> Path:
+    """The checkpoint file ``path`` names: the file itself, or a run folder's checkpoint.h5."""
     path = Path(path)
-    if path.is_dir():  # a run folder: its checkpoint
+    if path.is_dir():
         if not (path / "checkpoint.h5").is_file():
             raise SceneError(f"--restart {path}: a folder without checkpoint.h5")
         path = path / "checkpoint.h5"
     if not path.exists():
         raise SceneError(f"--restart {path}: file does not exist")
+    return path
+
+
+@contextmanager
+def open_checkpoint(path: str | os.PathLike):
+    """The checkpoint at ``path`` (a file or a run folder), open for reading and checked:
+    yields ``(datasets, attrs)``, the datasets unread (h5py's, sliced for the rows wanted;
+    a restart reads only its rank's share), attrs["history_columns"] as a tuple of names."""
+    path = checkpoint_file(path)
     try:
         with h5py.File(path, "r") as h5:
             if h5.attrs.get("format") != "pardem-checkpoint":
@@ -62,20 +72,20 @@ def load_checkpoint(path: str | os.PathLike) -> tuple[dict[str, np.ndarray], dic
             if groups:
                 raise SceneError(f"--restart {path}: corrupted checkpoint: {groups[0]!r} is a "
                                  "group, not a dataset")
-            arrays = {k: h5[k][()] for k in h5.keys()}
+            arrays = {k: h5[k] for k in h5.keys()}
+            if int(attrs.get("version", 1)) == 1:
+                _upgrade(arrays, attrs)
+            missing = [k for k in ARRAYS + PAIRS if k not in arrays]
+            missing += [f"attribute {a!r}" for a in ATTRS if a not in attrs]
+            if missing:
+                raise SceneError(f"--restart {path}: corrupted checkpoint: it lacks "
+                                 f"{', '.join(missing)}")
+            _check_layout(path, arrays, attrs)
+            names = str(attrs.get("history_columns", ""))
+            attrs["history_columns"] = tuple(names.split(",")) if names else ()
+            yield arrays, attrs
     except OSError as e:
         raise SceneError(f"--restart {path}: unreadable or truncated checkpoint ({e})") from e
-    if int(attrs.get("version", 1)) == 1:
-        _upgrade(arrays, attrs)
-    missing = [k for k in ARRAYS + PAIRS if k not in arrays]
-    missing += [f"attribute {a!r}" for a in ATTRS if a not in attrs]
-    if missing:
-        raise SceneError(f"--restart {path}: corrupted checkpoint: it lacks "
-                         f"{', '.join(missing)}")
-    _check_layout(path, arrays, attrs)
-    names = str(attrs.get("history_columns", ""))
-    attrs["history_columns"] = tuple(names.split(",")) if names else ()
-    return arrays, attrs
 
 
 ATTRS = ("step", "time", "dt", "fingerprint")
@@ -98,13 +108,13 @@ def _check_layout(path, arrays: dict[str, np.ndarray], attrs: dict[str, object])
     rows = {"n": np.shape(arrays["gid"]), "m": np.shape(arrays["pair_lo"]),
             "q": np.shape(arrays["force_lo"])}
     for key, (count, tail) in LAYOUT.items():
-        a = np.asarray(arrays[key])
+        a = arrays[key]  # shape and dtype only: nothing is read
         want = rows[count] + tail
         if a.dtype.kind not in "iuf" or a.shape != want:
             raise SceneError(f"--restart {path}: corrupted checkpoint: {key} has shape "
                              f"{a.shape} of {a.dtype}, expected {want} of numbers")
     for key, count in (("pair_hist", "m"), ("hist_wall", "n")):
-        a = np.asarray(arrays[key])
+        a = arrays[key]
         if a.dtype.kind not in "iuf" or a.ndim != 2 or a.shape[0] not in (rows[count][0], 0):
             raise SceneError(f"--restart {path}: corrupted checkpoint: {key} has shape "
                              f"{a.shape} of {a.dtype}, expected ({rows[count][0]}, columns)")

@@ -1,5 +1,5 @@
 """What a checkpoint holds and how a run continues from one: the whole state gathered on rank 0
-(``gather_state``) and put back into the whole-cell arrays of a new run (``restore``).
+(``gather_state``), and each rank's share of it read back by that rank (``restore``).
 
 Stage: output / restart. The file format itself is ``checkpoint.py``. A checkpoint holds every
 particle array, the contact history keyed by gid pairs (its columns named, so a run that tracks
@@ -12,15 +12,17 @@ bit, on any number of ranks, and so do its averages.
 from __future__ import annotations
 
 import json
+from typing import NamedTuple
 
 import numpy as np
 
 from ..contact.history import merge_history
+from ..placement import cell_rows, share_rows
 from ..scene import SceneError, physics_differences
-from ..state import FREE
+from ..state import FREE, Particles
 from .averages import ARRAYS as AVERAGE_ARRAYS
 from .averages import checkpoint_part
-from .checkpoint import ARRAYS, load_checkpoint
+from .checkpoint import ARRAYS, checkpoint_file, open_checkpoint
 
 
 def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
@@ -72,50 +74,179 @@ def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
     return arrays, attrs
 
 
-def restore(path, ps, scene, dt: float, columns: tuple[str, ...], decomp, log):
-    """Fill the whole-cell arrays ``ps`` (gid order) from the checkpoint at ``path`` (read on
-    rank 0, sent to all). Returns ``(step, history, forces)``: the step to continue from, the
-    history table (lo, hi, rows with this run's ``columns``; None without history) and the
-    recorded forces ``(lo, hi, [m,3] pair forces, [n,3] ring forces)`` and the ring samples
-    (averages.ARRAYS and the attribute ``rings_layout``, where the checkpoint has them; for
-    ``averages.resume``). SceneError if the checkpoint belongs to another scene or is damaged."""
-    arrays, attrs = decomp.bcast_call(load_checkpoint, path)
-    if attrs["fingerprint"] != scene.fingerprint():
-        differ = (physics_differences(scene.physics(), json.loads(attrs["scene_physics"]))
-                  if "scene_physics" in attrs else [])
-        raise SceneError(f"--restart {path}: the checkpoint belongs to a different scene: "
-                         + ("; ".join(differ[:5]) + (" ..." if len(differ) > 5 else "")
-                            if differ else "geometry, particles, contact law, effects or dt "
-                            "differ (a checkpoint of an older pardem does not say which)"))
-    if attrs["dt"] != dt:
-        raise SceneError(f"--restart {path}: checkpoint dt = {attrs['dt']} s differs from "
-                         f"the scene's dt = {dt} s")
-    n = ps.gid.size
-    if arrays["gid"].size != n:
-        raise SceneError(f"--restart {path}: {arrays['gid'].size} particles in the "
-                         f"checkpoint, {n} in the scene")
-    _check_restored(path, arrays, ps)
-    written = attrs["history_columns"]
-    for k in ("hist_wall", "pair_hist"):
-        arrays[k] = _history_columns(path, arrays[k], written, columns, log)
-    for k in ARRAYS:
-        if columns or k != "hist_wall":
-            getattr(ps, k)[: arrays[k].shape[0]] = arrays[k]
-    history = ((arrays["pair_lo"], arrays["pair_hi"], arrays["pair_hist"]) if columns
-               else None)
-    forces = (arrays["force_lo"], arrays["force_hi"], arrays["pair_force"],
-              arrays["ring_force"])
-    averages = {k: arrays[k] for k in AVERAGE_ARRAYS if k in arrays}
-    if "rings_layout" in attrs:
-        averages["rings_layout"] = str(attrs["rings_layout"])
-    return int(attrs["step"]), history, forces, averages
+CHUNK_ROWS = 1 << 16  # rows read at a time: a rank holds its share of a checkpoint, not all
+
+
+class Restored(NamedTuple):
+    """A rank's share of a checkpoint: its particle arrays (``placement.share_rows``' rows and
+    capacity), how many rows are free and owned and how many there are, the step to continue
+    from, the history of the pairs that touch its rows (lo, hi, rows with the run's columns;
+    None without history), the recorded forces ``(lo, hi, [m,3] pair forces, gids, [k,3] ring
+    forces of those gids)``, and the ring samples (averages.ARRAYS and the attribute
+    ``rings_layout``, where the checkpoint has them; for ``averages.resume``)."""
+
+    ps: Particles
+    n_owned: int
+    n_rows: int
+    step: int
+    history: tuple | None
+    forces: tuple
+    averages: dict
+
+
+def restore(path, init, scene, dt: float, columns: tuple[str, ...], decomp, log) -> Restored:
+    """This rank's share of the checkpoint at ``path`` (collective). Rank 0 checks that it
+    belongs to the scene and reads the free particles' positions, from which the annulus is
+    cut, and the ring samples; then each rank reads its own rows of every particle array and
+    the pairs that touch them, ``CHUNK_ROWS`` rows at a time, so that no rank ever holds the
+    whole cell. SceneError on every rank if the checkpoint belongs to another scene or is
+    damaged."""
+    head = decomp.bcast_call(_head, path, scene, dt, init, columns)
+    if head.pop("no_eta"):
+        log(f"restart from {path}: the checkpoint has no eta (total tangential displacement); "
+            "it starts from the spring, exact for contacts that have not slid")
+    idx, n_owned, capacity = share_rows(init.radius.size, head.pop("x_free"), decomp)
+    ps = cell_rows(init, len(columns), idx, capacity)
+    try:
+        (history, forces), message = _read_share(head["file"], ps, idx, columns), None
+    except SceneError as e:
+        history = forces = None
+        message = str(e)
+    message = decomp.first_message(message)
+    if message is not None:
+        raise SceneError(message)
+    return Restored(ps, n_owned, idx.size, head["step"], history if columns else None, forces,
+                    head["averages"])
+
+
+def _head(path, scene, dt: float, init, columns: tuple[str, ...]) -> dict:
+    """Rank 0's part of ``restore``: the checks against the scene, the file, the step, the free
+    particles' positions, the ring samples, and whether the missing eta is to be said."""
+    with open_checkpoint(path) as (arrays, attrs):
+        if attrs["fingerprint"] != scene.fingerprint():
+            differ = (physics_differences(scene.physics(), json.loads(attrs["scene_physics"]))
+                      if "scene_physics" in attrs else [])
+            raise SceneError(
+                f"--restart {path}: the checkpoint belongs to a different scene: "
+                + ("; ".join(differ[:5]) + (" ..." if len(differ) > 5 else "") if differ
+                   else "geometry, particles, contact law, effects or dt differ (a "
+                   "checkpoint of an older pardem does not say which)"))
+        if attrs["dt"] != dt:
+            raise SceneError(f"--restart {path}: checkpoint dt = {attrs['dt']} s differs "
+                             f"from the scene's dt = {dt} s")
+        n = init.radius.size
+        if arrays["gid"].shape[0] != n:
+            raise SceneError(f"--restart {path}: {arrays['gid'].shape[0]} particles in the "
+                             f"checkpoint, {n} in the scene")
+        x_free = np.asarray(arrays["x"][:init.n_free], float)
+        bad = np.flatnonzero(~np.isfinite(x_free).all(axis=1))
+        if bad.size:  # the cut is placed from these: checked before any rank reads its share
+            raise SceneError(f"--restart {path}: corrupted checkpoint: non-finite x in row "
+                             f"{int(bad[0])}")
+        averages = {k: arrays[k][()] for k in AVERAGE_ARRAYS if k in arrays}
+        if "rings_layout" in attrs:
+            averages["rings_layout"] = str(attrs["rings_layout"])
+        written = attrs["history_columns"]
+        no_eta = ("eta_x" in columns and "eta_x" not in written
+                  and (arrays["pair_hist"].shape[0] or arrays["hist_wall"].shape[0]) > 0)
+        return {"file": checkpoint_file(path), "step": int(attrs["step"]), "x_free": x_free,
+                "averages": averages, "no_eta": no_eta}
+
+
+def _read_share(path, ps, idx: np.ndarray, columns: tuple[str, ...]):
+    """Rows ``idx`` (gids, ascending) of the checkpoint's particle arrays into ``ps`` (which
+    holds the scene's values of those rows, checked against the file's), the history and the
+    recorded forces of the pairs with a particle among them. Returns ``(history, forces)``."""
+    with open_checkpoint(path) as (arrays, attrs):
+        k = idx.size
+        for key in ARRAYS:
+            if key == "hist_wall":
+                continue
+            rows = _rows(arrays[key], idx)
+            _check_rows(path, key, rows, getattr(ps, key)[:k], idx)
+            getattr(ps, key)[:k] = rows
+        written = attrs["history_columns"]
+        if arrays["hist_wall"].shape[0]:
+            rows = _rows(arrays["hist_wall"], idx)
+            _check_rows(path, "hist_wall", rows, None, idx)
+            if columns:
+                ps.hist_wall[:k] = _history_columns(path, rows, written, columns)
+        ring = _rows(arrays["ring_force"], idx)
+        _check_rows(path, "ring_force", ring, None, idx)
+        touched = np.zeros(arrays["gid"].shape[0], np.bool_)
+        touched[idx] = True
+        lo, hi, hist = _pairs(path, arrays, "pair_lo", "pair_hi", "pair_hist", touched)
+        history = (lo, hi, _history_columns(path, hist, written, columns))
+        forces = _pairs(path, arrays, "force_lo", "force_hi", "pair_force", touched)
+        return history, forces + (idx, ring)
+
+
+def _rows(dataset, idx: np.ndarray) -> np.ndarray:
+    """Rows ``idx`` (ascending) of an HDF5 dataset (or array), read a chunk at a time."""
+    out = np.empty((idx.size,) + tuple(dataset.shape[1:]), dataset.dtype)
+    for a in range(0, dataset.shape[0], CHUNK_ROWS):
+        lo, hi = np.searchsorted(idx, (a, a + CHUNK_ROWS))
+        if hi > lo:
+            block = dataset[a:int(idx[hi - 1]) + 1]
+            out[lo:hi] = block[idx[lo:hi] - a]
+    return out
+
+
+def _pairs(path, arrays, lo_key: str, hi_key: str, value_key: str, touched: np.ndarray):
+    """The rows of a pair table (keys ``lo_key``/``hi_key``, values ``value_key``) with a
+    particle among ``touched``, read and checked a chunk at a time."""
+    n, m = touched.size, arrays[lo_key].shape[0]
+    values = arrays[value_key]
+    width = values.shape[1] if values.ndim == 2 else 0
+    keep: list[tuple] = []
+    for a in range(0, m, CHUNK_ROWS):
+        lo, hi = np.asarray(arrays[lo_key][a:a + CHUNK_ROWS]), arrays[hi_key][a:a + CHUNK_ROWS]
+        if not (np.all(lo < hi) and lo.min() >= 0 and hi.max() < n):
+            raise SceneError(f"--restart {path}: corrupted checkpoint: {lo_key}/{hi_key} are "
+                             f"not pairs of particle ids 0..{n - 1}")
+        v = np.asarray(values[a:a + CHUNK_ROWS], float) if values.shape[0] else None
+        if v is not None:
+            _check_rows(path, value_key, v, None, np.arange(a, a + v.shape[0]))
+        mine = touched[lo] | touched[hi]
+        keep.append((lo[mine], hi[mine], v[mine] if v is not None else np.zeros((0, width))))
+    if not keep:
+        return np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, width))
+    return tuple(np.concatenate(part) for part in zip(*keep))
+
+
+def _check_rows(path, key: str, got: np.ndarray, want: np.ndarray | None, rows) -> None:
+    """A checkpoint whose bytes were damaged may still read as HDF5 (it has no checksums): the
+    particles must be the scene's (ids, kinds, radii, masses, the wall disks' places on their
+    rings: ``want``, bit for bit) and every state value finite, else the restart is refused
+    instead of continuing from garbage. ``rows``: the file's row of each row of ``got``."""
+    if key in IDENTITY:
+        tol = IDENTITY[key]
+        differ = got != want if tol == 0 else ~(np.abs(got - want) <= tol)  # NaN differs
+        bad = np.flatnonzero(differ.reshape(differ.shape[0], -1).any(axis=1))
+        if bad.size:
+            raise SceneError(f"--restart {path}: corrupted checkpoint: {key} of particle row "
+                             f"{int(rows[bad[0]])} is {got[bad[0]]!r}, the scene has "
+                             f"{want[bad[0]]!r}")
+    elif key in FINITE and len(got):
+        bad = np.flatnonzero(~np.isfinite(np.asarray(got, float)).reshape(
+            len(got), -1).all(axis=1))
+        if bad.size:
+            raise SceneError(f"--restart {path}: corrupted checkpoint: non-finite {key} in row "
+                             f"{int(rows[bad[0]])}")
+
+
+# e0 = (cos, sin) phi0 may differ by an ulp between numpy builds: a checkpoint moves; masses
+# of wall disks are inf; phi0 and e0 are the wall disks' places on their rings
+IDENTITY = {"gid": 0, "kind": 0, "radius": 0, "mass": 0, "phi0": 0, "e0": 1e-12}
+FINITE = ("x", "v", "theta", "omega", "f", "tau", "hist_wall", "pair_hist", "pair_force",
+          "ring_force")
 
 
 def _history_columns(path, rows: np.ndarray, written: tuple[str, ...],
-                     columns: tuple[str, ...], log) -> np.ndarray:
+                     columns: tuple[str, ...]) -> np.ndarray:
     """A checkpoint's history rows (columns ``written``) with this run's ``columns``. A column
     the checkpoint lacks starts at zero, except eta, which starts as the spring: exact for
-    every contact that has not slid since it began (logged)."""
+    every contact that has not slid since it began (``restore`` says so)."""
     rows = np.asarray(rows, float)
     if rows.ndim != 2 or (rows.shape[0] and rows.shape[1] != len(written)):
         raise SceneError(f"--restart {path}: corrupted checkpoint: contact history of shape "
@@ -126,36 +257,4 @@ def _history_columns(path, rows: np.ndarray, written: tuple[str, ...],
             out[:, c] = rows[:, written.index(name)]
         elif name.startswith("eta_") and f"spring_{name[-1]}" in written:
             out[:, c] = rows[:, written.index(f"spring_{name[-1]}")]
-    if "eta_x" in columns and "eta_x" not in written and rows.shape[0]:
-        log(f"restart from {path}: the checkpoint has no eta (total tangential displacement); "
-            "it starts from the spring, exact for contacts that have not slid")
     return out
-
-
-def _check_restored(path, arrays: dict[str, np.ndarray], ps) -> None:
-    """A checkpoint whose bytes were damaged may still read as HDF5 (it has no checksums): its
-    particles must be the scene's (ids, kinds, radii, masses, the wall disks' places on their
-    rings: bit for bit) and every state value finite, else the restart is refused instead of
-    continuing from garbage."""
-    # e0 = (cos, sin) phi0 may differ by an ulp between numpy builds: a checkpoint moves
-    for key, tol in (("gid", 0), ("kind", 0), ("radius", 0), ("mass", 0), ("phi0", 0),
-                     ("e0", 1e-12)):  # phi0, e0: the wall disks' places on their rings
-        got, want = np.asarray(arrays[key]), getattr(ps, key)  # masses of wall disks: inf
-        differ = got != want if tol == 0 else ~(np.abs(got - want) <= tol)  # NaN differs
-        bad = np.flatnonzero(differ.reshape(differ.shape[0], -1).any(axis=1))
-        if bad.size:
-            raise SceneError(f"--restart {path}: corrupted checkpoint: {key} of particle row "
-                             f"{int(bad[0])} is {arrays[key][bad[0]]!r}, the scene has "
-                             f"{getattr(ps, key)[bad[0]]!r}")
-    for key in ("x", "v", "theta", "omega", "f", "tau", "hist_wall", "pair_hist", "pair_force",
-                "ring_force"):
-        bad = np.flatnonzero(~np.isfinite(np.asarray(arrays[key], float)).reshape(
-            len(arrays[key]), -1).all(axis=1)) if len(arrays[key]) else []
-        if len(bad):
-            raise SceneError(f"--restart {path}: corrupted checkpoint: non-finite {key} in row "
-                             f"{int(bad[0])}")
-    for lo_key, hi_key in (("pair_lo", "pair_hi"), ("force_lo", "force_hi")):
-        lo, hi = np.asarray(arrays[lo_key]), np.asarray(arrays[hi_key])
-        if lo.size and not (np.all(lo < hi) and lo.min() >= 0 and hi.max() < ps.gid.size):
-            raise SceneError(f"--restart {path}: corrupted checkpoint: {lo_key}/{hi_key} are "
-                             f"not pairs of particle ids 0..{ps.gid.size - 1}")
