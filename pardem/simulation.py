@@ -117,11 +117,13 @@ class Simulation(StateViews):
         # the in-situ averager ([averaging] table; None without), kept across run() calls
         self.rings = make_averager(scene, self._free_radii, self.decomp)
         history, recorded = None, None
-        if restart is not None:  # each rank reads its own rows only
+        if restart is None:  # this rank's rows only, built or read
+            self.ps, n_owned, n = rank_share(init, self.decomp, self.hist)
+        else:
             got = restore(restart, init, scene, self.dt, self.history_columns, self.decomp,
                           self.log)
-            self.clock.step[0], history, recorded = got.step, got.history, got.forces
-            resume(self.rings, scene, self.dt, self.step, got.averages, restart, self.log)
+            self.ps, n_owned, n, self.clock.step[0], history, recorded, averages = got
+            resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
         self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
         self._claimed = None  # run files present when the folder was claimed (first run only)
         if self.out_dir is not None:  # claimed under the folder's lock, released after
@@ -133,8 +135,6 @@ class Simulation(StateViews):
                 self.folder_lock.release()
             if removed:
                 self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
-        self.ps, n_owned, n = (rank_share(init, self.decomp, self.hist) if restart is None
-                               else (got.ps, got.n_owned, got.n_rows))
         wall_radius = float(init.radius[init.n_free:].max(initial=0.0))
         del init  # the whole cell's arrays: not kept
         self.clock.n_owned[0] = n_owned

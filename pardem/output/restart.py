@@ -107,10 +107,10 @@ def restore(path, init, scene, dt: float, columns: tuple[str, ...], decomp, log)
             "it starts from the spring, exact for contacts that have not slid")
     idx, n_owned, capacity = share_rows(init.radius.size, head.pop("x_free"), decomp)
     ps = cell_rows(init, len(columns), idx, capacity)
+    message = None
     try:
-        (history, forces), message = _read_share(head["file"], ps, idx, columns), None
-    except SceneError as e:
-        history = forces = None
+        history, forces = _read_share(head["file"], ps, idx, columns)
+    except SceneError as e:  # said on every rank, below: no rank waits for the others
         message = str(e)
     message = decomp.first_message(message)
     if message is not None:
