@@ -1,22 +1,23 @@
 """The first run on several ranks: its largest kernels compiled on different ranks at once.
 
 Every rank calls the same kernels, so with a cold numba cache every rank would compile all of
-them, one after another, in the same order. Before the first exchange, rank 0 compiles the
-migration (``parallel.exchange.exchange_rows``) while rank 1 compiles the two kernels that
-the migration calls last (its refresh plan and the list build, which rank 0 then finds in the
-cache), the force loop and the ring contacts (``forces``), and the step loop around them
-(``step.make_stepper``'s ``advance``, with the ghost refresh it calls); after a barrier each
-rank loads the other's from numba's disk cache when it first calls them. The small kernels
-that a run would otherwise compile after its first step, on every rank at once, are shared the
-same way, most of them on rank 1, since the migration alone takes rank 0 almost as long as
-rank 1's list: the progress line's diagnostics, the ring-contact test and the exchange test
-(``cut.largest_move``) first, the ring sums of in-situ averaging last; the touching-pair test of
-the contact tables on rank 0 (``run_scripts/compile_times.py`` measures the balance). With a
-warm cache
-each ``compile`` only loads. The signatures are those of the calls that follow
-(``numba.typeof`` of the same arguments; inside the step loop the switches are literals; the
-step loop's refresh plan is an empty one of the same types): a mismatch would cost only a
-second compile, which ``tests/test_mpi.py`` checks for.
+them, one after another, in the same order. Instead:
+- ``compile_first``, before the annulus is cut: rank 0 compiles the cut's owner test while
+  rank 1 compiles the refresh plan's buffers.
+- ``compile_ahead``, before the first exchange: rank 0 compiles the migration
+  (``parallel.exchange``'s ``send_rows``, ``receive_rows`` and ``peer_offsets``), then the
+  touching-pair test of the contact tables and the ring sums of in-situ averaging; rank 1
+  compiles the progress line's diagnostics, the ring-contact and exchange tests
+  (``cut.largest_move``), the two kernels the migration calls last (its refresh plan, which
+  rank 0 then finds in the cache, and the list build), the force loop and the ring contacts
+  (``forces``), and the step loop around them (``step.make_stepper``'s ``advance``, with the
+  ghost refresh it calls).
+After a barrier each rank loads the other's from numba's disk cache when it first calls them;
+with a warm cache each ``compile`` only loads. The two lists take about as long
+(``run_scripts/compile_times.py`` measures the balance). The signatures are those of the calls
+that follow (``numba.typeof`` of the same arguments; inside the step loop the switches are
+literals; the step loop's refresh plan is an empty one of the same types): a mismatch would
+cost only a second compile, which ``tests/test_mpi.py`` checks for.
 """
 
 from __future__ import annotations
@@ -30,26 +31,48 @@ from .forces import contact_forces, ring_contacts
 from .rebuild import exchange_counts
 
 
+def compile_first(decomp) -> None:
+    """Collective, before the annulus is first cut: the two kernels every rank needs before
+    ``compile_ahead`` (the cut's owner test; the refresh plan's buffers, for the step loop's
+    signature) compiled one per rank instead of both on every rank."""
+    if decomp.parallel:
+        _compile(decomp, _first_groups(decomp))
+
+
 def compile_ahead(sim, history) -> None:
     """Collective, before the first neighbour build of a parallel run (``history`` as given to
-    that build). A kernel that fails to compile here is left to its first call, which reports
-    the error on every rank."""
-    decomp = sim.decomp
-    if not decomp.parallel:
-        return
-    groups = _groups(sim, history)
+    that build)."""
+    if sim.decomp.parallel:
+        _compile(sim.decomp, _groups(sim, history))
+
+
+def _compile(decomp, groups: list[list]) -> None:
+    """Each rank compiles its group (a signature may be a function, called when its turn
+    comes), then waits for the others. A kernel that fails to compile here is left to its first
+    call, which reports the error on every rank."""
     for kernel, signature in groups[decomp.rank] if decomp.rank < len(groups) else ():
         try:
-            kernel.compile(signature)
+            kernel.compile(signature() if callable(signature) else signature)
         except Exception:  # noqa: BLE001  (compiled again, and reported, at the call)
             pass
     decomp.comm.Barrier()
 
 
+def _first_groups(decomp) -> list[list]:
+    """Per rank, the kernels of ``compile_first`` and their signatures."""
+    from .parallel.cut import owners
+    from .parallel.halo import halo_buffers
+
+    f8_1d, f8_2d = nb.typeof(np.zeros(2)), nb.typeof(np.zeros((1, 2)))
+    plan = types.UniTuple(nb.typeof(np.zeros(1, np.int64)), 4)
+    return [[(owners, (f8_2d, f8_1d, f8_2d, types.int64))],
+            [(halo_buffers, (plan, nb.typeof(decomp.handles)))]]
+
+
 def _groups(sim, history) -> list[list]:
     """Per rank, the kernels to compile and their signatures."""
     from .neighbors import build_lists
-    from .parallel.exchange import _refresh_plan, exchange_rows  # loads libmpi: parallel only
+    from .parallel.exchange import _refresh_plan  # loads libmpi: parallel only
 
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
     exchange = sim.decomp.exchange_arguments(ps, pairs, sim.clock, exchange_counts(sim.clock),
@@ -63,36 +86,51 @@ def _groups(sim, history) -> list[list]:
     lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False, NO_HISTORY, True))
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
     plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
-    after_migration, early, late = _first_step(sim, state, f8)
+    after_migration, early = _first_step(sim, state, f8)
     return [
-        [(exchange_rows, tuple(nb.typeof(a) for a in exchange))] + after_migration,
+        _migration(tuple(nb.typeof(a) for a in exchange)) + after_migration,
         early + [(_refresh_plan, plan), (build_lists, lists),
          (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
                                    nb.typeof(np.zeros(1)), record)),
          (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record)),
-         (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))]
-        + late,
+         (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))],
     ]
 
 
-def _first_step(sim, state, f8) -> tuple[list, list, list]:
+def _migration(exchange: tuple) -> list:
+    """The compiled calls of ``exchange.exchange_rows`` (``exchange``: the types of its
+    arguments); receive_rows takes what send_rows returns."""
+    from .parallel.exchange import receive_rows, send_rows
+    from .parallel.halo import peer_offsets
+
+    ps, pairs, _, counts, plan, from_list, history, t, prm, handles = exchange
+    index = nb.typeof(np.zeros(1, np.int64))
+
+    def receive():
+        rbuf, recv_off, owner, sent_history, _ = send_rows.nopython_signatures[-1].return_type
+        return (ps, counts, owner, types.Tuple((rbuf, recv_off)), plan, sent_history, t, prm,
+                handles, types.boolean)
+    return [(send_rows, (ps, pairs, types.int64, plan, from_list, history, handles)),
+            (receive_rows, receive), (peer_offsets, (index, index, index, handles))]
+
+
+def _first_step(sim, state, f8) -> tuple[list, list]:
     """The kernels of the output, averaging and exchange test (compiled lazily otherwise, all
-    ranks at once): rank 0's share, and rank 1's before and after the kernels rank 0 needs from
-    it."""
+    ranks at once): rank 0's share (after the migration) and rank 1's (before its list)."""
     from . import diagnostics as diag
     from .parallel.cut import largest_move
 
     n, prm = types.int64, nb.typeof(sim.prm)
     positions = nb.typeof(sim.ps.x[:1])  # the contiguous leading rows, as exchange_due passes
-    late = []
+    after_migration = [(diag.touching_pairs, state + (n,))]
     if sim.rings is not None:
         from averaging.sample import empty_sample
         from averaging.sums import accumulate
 
         sums = sim.rings.sum_arguments(empty_sample())
-        late.append((accumulate, tuple(nb.typeof(a) for a in sums)))
+        after_migration.append((accumulate, tuple(nb.typeof(a) for a in sums)))
     early = [(diag.kinetic_energy, (state[0], n)), (diag.max_overlap_ratio, state + (prm, f8)),
              (largest_move, (positions, positions))]
     if sim.options.walls:
         early.append((diag.touching_rings, state + (prm, f8)))
-    return [(diag.touching_pairs, state + (n,))], early, late
+    return after_migration, early

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 import numpy as np
 
-from .compile_ahead import compile_ahead
+from .compile_ahead import compile_ahead, compile_first
 from .contact.history import carry_history, live_history
 from .contact.model import history_columns, law_params, options_for
 from .output.progress import (breakdown, end_progress, log_line, progress_line, show_progress,
@@ -113,6 +113,7 @@ class Simulation(StateViews):
         self.decomp = decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
                                     g.inner_radius if g else 0.0,
                                     margin=GHOST_MARGIN_SKINS * skin, cut=cut)
+        compile_first(self.decomp)  # parallel runs: the kernels the cut needs, shared
         self.clock = new_clock(init.n_free, init.radius.size, self.prm.rings.r_out0)
         # the in-situ averager ([averaging] table; None without), kept across run() calls
         self.rings = make_averager(scene, self._free_radii, self.decomp)
@@ -140,8 +141,7 @@ class Simulation(StateViews):
         self.clock.n_owned[0] = n_owned
         self.clock.n_local[0] = n
         self.clock.n_moving[0] = n  # every wall disk is at time t: none idle yet
-        # rebuild.order_walls: no owned particle gets this close to an idle wall disk between
-        # exchanges
+        # no owned particle comes this close to an idle wall disk between exchanges (order_walls)
         self.wall_margin = self.decomp.ghost_width + self.prm.wall_skin + 2.0 * wall_radius
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.hist)
         compile_ahead(self, history)  # parallel runs: the ranks share a cold compile

@@ -189,9 +189,10 @@ def test_kernels_compiled_ahead_have_the_signatures_of_their_calls(tmp_path):
                                                   "sample_interval": 0.1})
     done = run_mpi([str(MPI_DIR / "compile_ahead_check.py"), str(scene)], 2)
     every = json.loads(done.stdout.strip().splitlines()[-1])
-    assert len(every) == 2 and {"exchange_rows", "contact_forces", "accumulate", "touching_pairs",
-                                "touching_rings", "kinetic_energy", "max_overlap_ratio",
-                                "largest_move"} <= set(every[1]["versions"])
+    assert len(every) == 2 and {
+        "send_rows", "receive_rows", "peer_offsets", "contact_forces", "accumulate",
+        "touching_pairs", "touching_rings", "kinetic_energy", "max_overlap_ratio",
+        "largest_move", "owners", "halo_buffers"} <= set(every[1]["versions"])
     assert every[0]["ahead"] and every[1]["ahead"]
     for rank, mine in enumerate(every):
         assert all(mine["versions"][k] == 1 for k in mine["ahead"]), f"rank {rank}: {mine}"

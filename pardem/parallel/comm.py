@@ -74,7 +74,7 @@ class Decomposition:
         self.n_migrated = 0  # particles received from other ranks (cumulative)
         self.n_rebalanced = 0
         self._balance_calls = 0
-        self._handles = handles_of(comm)
+        self.handles = handles_of(comm)
         # the per-step ghost refresh goes through shared memory if all ranks are on one node
         self.shared_halo = SharedWindow.usable(comm)
         self.window: SharedWindow | None = None  # made (or grown) at an exchange, to its size
@@ -218,14 +218,14 @@ class Decomposition:
                             wall_margin, row_width(hist), row_columns(hist)["x"].start,
                             self.shared_halo, ring_walls)
         return (ps, pairs, clock, counts, plan, hist > 0 and history is None,
-                history if history is not None else NO_HISTORY, t, prm, self._handles)
+                history if history is not None else NO_HISTORY, t, prm, self.handles)
 
     def empty_halo(self) -> Halo:
         """A refresh plan with no ghosts, of the same numba types as the real ones (what
         ``compile_ahead`` compiles the step loop for before the first exchange)."""
         none = np.zeros(0, np.int64)
         start = np.zeros(1, np.int64)
-        return make_halo(self.comm, halo_buffers((none, none, start, start), self._handles),
+        return make_halo(self.comm, halo_buffers((none, none, start, start), self.handles),
                          False)
 
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:

@@ -1,12 +1,13 @@
-"""Compiled exchange under MPI (the neighbour builds that ``Decomposition.exchange_due``
+"""The exchange under MPI (the neighbour builds that ``Decomposition.exchange_due``
 selects): migration with contact history and ghost selection in one round, then the new layout
 of the rows, the wall disks near the domain, and the per-step refresh plan.
 
 Stage: neighbour rebuild (``comm.Decomposition.distribute`` calls ``exchange_rows``; the
 collective itself is ``halo.alltoallv``). Done as ~80 numpy and mpi4py calls with the
 interpreter's caches cold after the step loop, the glue of a build cost more than its work, so
-the whole exchange build (exchange, layout, lists) is one compiled call around one Alltoall +
-Alltoallv. The other builds are one compiled call too (``neighbors.build_lists``).
+an exchange build is four compiled calls (send, receive and lay out, the shared-memory
+offsets, the lists) around one Alltoall + Alltoallv. The other builds are one compiled call
+(``neighbors.build_lists``).
 
 One round suffices because the sender knows where each of its particles goes: to rank r it
 sends the particles r will own (migrants, with the springs of their listed pairs) and the
@@ -63,17 +64,19 @@ def _destination(gid, mig_gid, mig_dest):
     return mig_dest[k] if k < mig_gid.size and mig_gid[k] == gid else -1
 
 
-@nb.njit(**JIT)
 def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, handles):
     """The whole exchange (collective): ``send_rows``, ``receive_rows``, with a shared-memory
     refresh ``halo.peer_offsets``, and the new counts in clock. ``counts``: (n_owned, n_local,
     idle) before it (owned rows, owned rows + wall disks, wall disks not moved since the last
     exchange). ``history``: (lo, hi, rows), used unless ``from_list`` (the springs of the current
     pair list). If the rows were written, also the lists (``neighbors.build_lists``, history
-    carried from the merged one): one compiled call for the whole build, since at a build each
-    call from Python costs tens of us to dispatch. Returns ``(mpi_error, received, peers,
-    lists)``: received as from receive_rows, peers (peer_at, need) or empty, lists (pair count,
-    ring candidate count) from build_lists, or (-1, -1) if not built."""
+    carried from the merged one). Returns ``(mpi_error, received, peers, lists)``: received as
+    from receive_rows, peers (peer_at, need) or empty, lists (pair count, ring candidate count)
+    from build_lists, or (-1, -1) if not built.
+
+    Four compiled calls from Python, not one compiled call around them: numba optimises a
+    kernel's code again with the code of every kernel it calls linked in, so a compiled
+    wrapper would add ~4 s to the first run's compile for ~0.1 ms per exchange saved."""
     n_owned = counts[0]
     rbuf, recv_off, owner, history, err = send_rows(ps, pairs, n_owned, plan, from_list, history,
                                                     handles)
@@ -90,9 +93,7 @@ def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, ha
     count, n_wall = -1, -1
     if written:
         clock.n_moving[0] = n_own + n_near
-        # from_list False as a run-time bool (n_owned >= 0): a literal False would compile
-        # build_lists a second time, beside the version the local builds call from Python
-        count, n_wall, _ = build_lists(ps, pairs, clock, prm, t, n_owned < 0, springs,
+        count, n_wall, _ = build_lists(ps, pairs, clock, prm, t, False, springs,
                                        plan.ring_walls)
     return err, received, (peer_at, need), (count, n_wall)
 
