@@ -6,12 +6,12 @@ them, one after another, in the same order. Instead:
   rank 1 compiles the refresh plan's buffers.
 - ``compile_ahead``, before the first exchange: rank 0 compiles the migration
   (``parallel.exchange``'s ``send_rows``, ``receive_rows`` and ``peer_offsets``), then the
-  touching-pair test of the contact tables and the ring sums of in-situ averaging; rank 1
-  compiles the progress line's diagnostics, the ring-contact and exchange tests
-  (``cut.largest_move``), the two kernels the migration calls last (its refresh plan, which
-  rank 0 then finds in the cache, and the list build), the force loop and the ring contacts
-  (``forces``), and the step loop around them (``step.make_stepper``'s ``advance``, with the
-  ghost refresh it calls).
+  ring sums of in-situ averaging; rank 1 compiles the progress line's diagnostics, the
+  ring-contact and exchange tests (``cut.largest_move``), the two kernels the migration calls
+  last (its refresh plan, which rank 0 then finds in the cache, and the list build), the force
+  loop and the ring contacts (``forces``), the step loop around them
+  (``step.make_stepper``'s ``advance``, with the ghost refresh it calls), and the touching-pair
+  test of the contact tables.
 After a barrier each rank loads the other's from numba's disk cache when it first calls them;
 with a warm cache each ``compile`` only loads. The two lists take about as long
 (``run_scripts/compile_times.py`` measures the balance). The signatures are those of the calls
@@ -86,14 +86,15 @@ def _groups(sim, history) -> list[list]:
     lists = state + tuple(nb.typeof(a) for a in (sim.clock, prm, 0.0, False, NO_HISTORY, True))
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
     plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
-    after_migration, early = _first_step(sim, state, f8)
+    after_migration, early, late = _first_step(sim, state, f8)
     return [
         _migration(tuple(nb.typeof(a) for a in exchange)) + after_migration,
         early + [(_refresh_plan, plan), (build_lists, lists),
          (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
                                    nb.typeof(np.zeros(1)), record)),
          (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record)),
-         (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))],
+         (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))]
+        + late,
     ]
 
 
@@ -114,15 +115,16 @@ def _migration(exchange: tuple) -> list:
             (receive_rows, receive), (peer_offsets, (index, index, index, handles))]
 
 
-def _first_step(sim, state, f8) -> tuple[list, list]:
+def _first_step(sim, state, f8) -> tuple[list, list, list]:
     """The kernels of the output, averaging and exchange test (compiled lazily otherwise, all
-    ranks at once): rank 0's share (after the migration) and rank 1's (before its list)."""
+    ranks at once): rank 0's share (after the migration) and rank 1's, before and after its
+    list (which starts with the refresh plan that rank 0's migration needs from it)."""
     from . import diagnostics as diag
     from .parallel.cut import largest_move
 
     n, prm = types.int64, nb.typeof(sim.prm)
     positions = nb.typeof(sim.ps.x[:1])  # the contiguous leading rows, as exchange_due passes
-    after_migration = [(diag.touching_pairs, state + (n,))]
+    after_migration = []
     if sim.rings is not None:
         from averaging.sample import empty_sample
         from averaging.sums import accumulate
@@ -133,4 +135,4 @@ def _first_step(sim, state, f8) -> tuple[list, list]:
              (largest_move, (positions, positions))]
     if sim.options.walls:
         early.append((diag.touching_rings, state + (prm, f8)))
-    return after_migration, early
+    return after_migration, early, [(diag.touching_pairs, state + (n,))]
