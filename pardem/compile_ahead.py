@@ -60,8 +60,7 @@ def _compile(decomp, groups: list[list]) -> None:
 
 def _first_groups(decomp) -> list[list]:
     """Per rank, the kernels of ``compile_first`` and their signatures."""
-    from .parallel.cut import owners
-    from .parallel.halo import halo_buffers
+    from .parallel.exchange import halo_buffers, owners  # the kernels of the exchange module
 
     f8_1d, f8_2d = nb.typeof(np.zeros(2)), nb.typeof(np.zeros((1, 2)))
     plan = types.UniTuple(nb.typeof(np.zeros(1, np.int64)), 4)
@@ -101,8 +100,7 @@ def _groups(sim, history) -> list[list]:
 def _migration(exchange: tuple) -> list:
     """The compiled calls of ``exchange.exchange_rows`` (``exchange``: the types of its
     arguments); receive_rows takes what send_rows returns."""
-    from .parallel.exchange import receive_rows, send_rows
-    from .parallel.halo import peer_offsets
+    from .parallel.exchange import peer_offsets, receive_rows, send_rows
 
     ps, pairs, _, counts, plan, from_list, history, t, prm, handles = exchange
     index = nb.typeof(np.zeros(1, np.int64))
