@@ -35,7 +35,7 @@ from .output.folder import FolderLock, claim_folder, lock_unchanged, run_files
 from .output.averages import make_averager, resume, sample_grid
 from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
-from .memory import check_memory
+from .memory import prepare_memory, reuse_freed_arrays
 from .placement import initial_configuration, rank_share
 from .neighbors import WALL_SKINS
 from .rebuild import place_idle_walls, rebuild, rebuild_on_request
@@ -106,7 +106,7 @@ class Simulation(StateViews):
                           c.mu_bottom * c.gravity, math.inf,
                           wall_skin=WALL_SKINS * skin if inner or outer else 0.0,
                           inner_disks=float(inner))
-        check_memory(scene, comm)
+        prepare_memory(scene, comm)
         init = initial_configuration(scene)
         self.n_free = init.n_free
         self._free_radii = init.radius[:init.n_free].copy()
@@ -138,8 +138,7 @@ class Simulation(StateViews):
                 self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
         wall_radius = float(init.radius[init.n_free:].max(initial=0.0))
         del init  # the whole cell's arrays: not kept
-        self.clock.n_owned[0] = n_owned
-        self.clock.n_local[0] = n
+        self.clock.n_owned[0], self.clock.n_local[0] = n_owned, n
         self.clock.n_moving[0] = n  # every wall disk is at time t: none idle yet
         # no owned particle comes this close to an idle wall disk between exchanges (order_walls)
         self.wall_margin = self.decomp.ghost_width + self.prm.wall_skin + 2.0 * wall_radius
@@ -150,6 +149,7 @@ class Simulation(StateViews):
             self._compute_forces()
         else:
             self._put_recorded_forces(*recorded)
+        reuse_freed_arrays()  # the set-up's peak is past; builds reuse their blocks (memory.py)
 
     # -- public state ----------------------------------------------------------------------
     @property

@@ -25,9 +25,10 @@ import threading
 import time
 
 
-def resident() -> int:
+def resident(field: int = 1) -> int:
+    """Resident bytes (``field`` 2: of them, mapped files and shared memory)."""
     with open("/proc/self/statm") as f:
-        return int(f.read().split()[1]) * resource.getpagesize()
+        return int(f.read().split()[field]) * resource.getpagesize()
 
 
 class Sampler(threading.Thread):
@@ -81,13 +82,17 @@ def main() -> None:
     sampler.running = False
     sampler.join()
     n = int(sim.clock.n_owned[0])
+    files = resident(2)
+    private = max(at_setup, sampler.top) - files
     rises = ", ".join(f"{k} +{v / 1e6:.0f} MB" for k, v in sampler.rises.items()) or "none"
     lines = comm.gather(f"rank {comm.rank}: {n} owned disks, set-up {took:.1f} s; largest RSS "
                         f"of the set-up {at_setup / 1e6:.0f} MB ({at_setup / n:.0f} B per "
                         f"owned disk), RSS after it {after / 1e6:.0f} MB ({after / n:.0f} B); "
                         f"largest during {args.steps} steps {sampler.top / 1e6:.0f} MB "
                         f"({sampler.top / n:.0f} B; rises: {rises}); {sim.n_rebuilds} builds, "
-                        f"{sim.decomp.n_exchanges} exchanges, {int(sim.pairs.count[0])} pairs",
+                        f"{sim.decomp.n_exchanges} exchanges, {int(sim.pairs.count[0])} pairs; mapped "
+                        f"files {files / 1e6:.0f} MB, private at the peak {private / 1e6:.0f} MB "
+                        f"({private / n:.0f} B per owned disk)",
                         root=0)
     if comm.rank == 0:
         print("\n".join(lines), flush=True)
