@@ -14,18 +14,19 @@ block freed so far (up to 32 MiB). The set-up (placement or restart, cut, first 
 build) frees large arrays of many sizes, which the heap would keep and fragment: the set-up runs
 with a fixed threshold that unmaps them (``unmap_freed_arrays``). The steps then make arrays of
 the same few sizes at every build, which the heap reuses without touching new pages
-(``reuse_freed_arrays``, glibc's own policy once it has grown); unmapped, each build's
-temporaries cost fresh pages: 7-13 % more time at 1M disks building every 16 steps, which a run
-short of memory can choose (``PARDEM_HEAP=lean``). At 1M disks on 2 ranks in a dense packing
-(600 steps, 37 builds) the set-up's peak fell from 540-552 to 464-477 MB per rank and the steps'
-from 556-560 to 508-517 MB; lean, the steps' stay at 453-459 MB (docs/scaling.md).
+(``reuse_freed_arrays``, glibc's own policy once it has grown); only an exchange, every few
+builds, gives its blocks back (``unmapped``): they have sizes no build makes, so the heap would
+grow by them once more. Unmapped, each build's temporaries would cost fresh pages (7-13 % more
+time at 1M disks building every 16 steps, for 2 % less memory). At 1M disks on 2 ranks in a
+dense packing (600 steps, 37 builds, 6 exchanges) the set-up's peak fell from 540-552 to 465-473
+MB per rank and the steps' from 556-560 to 472-477 MB, ~940 B per owned disk (docs/scaling.md).
 """
 
 from __future__ import annotations
 
 import ctypes
-import os
 import resource
+from contextlib import contextmanager
 from pathlib import Path
 
 from .parallel import smallest_node_share
@@ -106,11 +107,20 @@ def unmap_freed_arrays() -> bool:
 
 
 def reuse_freed_arrays() -> bool:
-    """Blocks up to REUSE_MMAP bytes stay in the heap for reuse when freed; with the environment
-    variable PARDEM_HEAP=lean, nothing changes (freed blocks keep going back)."""
-    if os.environ.get("PARDEM_HEAP", "reuse") == "lean":
-        return False
+    """Blocks up to REUSE_MMAP bytes stay in the heap for reuse when freed."""
     return _mallopt(((M_MMAP_THRESHOLD, REUSE_MMAP), (M_TRIM_THRESHOLD, REUSE_TRIM)))
+
+
+@contextmanager
+def unmapped():
+    """Blocks freed inside go back to the system, then the steps' reuse again. For an exchange:
+    its arrays (migrants, merged histories, new layouts) have sizes no build makes, so the heap
+    would grow by them once more instead of reusing."""
+    unmap_freed_arrays()
+    try:
+        yield
+    finally:
+        reuse_freed_arrays()
 
 
 def prepare_memory(scene: Scene, comm=None) -> None:

@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from .contact.history import NO_HISTORY
+from .memory import unmapped
 from .neighbors import build_lists
 from .state import (ROW_ROOM, new_pairs, new_particles, packed, row_width,
                     unpack_particles)
@@ -23,7 +24,8 @@ def rebuild(sim, history=None, rebalance: bool = True, exchange: bool = True) ->
     gid keys (from ``history`` if given, else from the current list)."""
     count, n_wall = -1, -1  # lists not built yet
     if sim.decomp.parallel and exchange:
-        history, (count, n_wall) = migrate(sim, history, rebalance)
+        with unmapped():  # its blocks fit no build's (memory.py)
+            history, (count, n_wall) = migrate(sim, history, rebalance)
     from_list = sim.hist > 0 and history is None
     if history is None:
         history = NO_HISTORY

@@ -9,21 +9,24 @@ import pytest
 # twelve 8 MB arrays of which all but the newest are freed: the resident anonymous memory that
 # stays, in MB, is printed.
 KEEPS = """
+import contextlib
 import sys
 import numpy as np
-from pardem.memory import reuse_freed_arrays, unmap_freed_arrays
+from pardem.memory import reuse_freed_arrays, unmap_freed_arrays, unmapped
 
 def anon():
     with open("/proc/self/status") as f:
         return next(int(s.split()[1]) for s in f if s.startswith("RssAnon:")) / 1024
 
+mode = sys.argv[1]
 applied = {"unmap": unmap_freed_arrays, "reuse": lambda: unmap_freed_arrays() and
-           reuse_freed_arrays(), "default": lambda: None}[sys.argv[1]]()
+           reuse_freed_arrays(), "default": lambda: None, "exchange": reuse_freed_arrays}[mode]()
 before = anon()
-a = np.ones(2 * 2**20)
-del a
-kept = [np.ones(2**20) for _ in range(12)]
-del kept[:-1]
+with unmapped() if mode == "exchange" else contextlib.nullcontext():
+    a = np.ones(2 * 2**20)
+    del a
+    kept = [np.ones(2**20) for _ in range(12)]
+    del kept[:-1]
 print(applied, anon() - before - 8)
 """
 
@@ -35,14 +38,16 @@ def _kept_mb(mode: str) -> tuple[str, float]:
 
 
 @pytest.mark.skipif(not sys.platform.startswith("linux"), reason="reads /proc, glibc's malloc")
-def test_freed_arrays_leave_the_resident_set_during_the_set_up_only():
+def test_freed_arrays_leave_the_resident_set_in_the_set_up_and_exchanges_only():
     """Eleven freed 8 MB arrays are 88 MB: with glibc's default heap most of them stay resident
     (the control, which shows the measure can tell); after ``unmap_freed_arrays`` (the set-up)
-    none does; after ``reuse_freed_arrays`` (the steps) they stay for reuse again."""
+    and inside ``unmapped()`` (an exchange) none does; after ``reuse_freed_arrays`` (the
+    builds between exchanges) they stay for reuse again."""
     applied, kept = _kept_mb("unmap")
     if applied != "True":
         pytest.skip("the C library is not glibc (mallopt refused)")
     assert kept < 8.0, kept
+    assert _kept_mb("exchange")[1] < 8.0
     for mode in ("default", "reuse"):
         applied, kept = _kept_mb(mode)
         assert kept > 60.0, (mode, kept)
