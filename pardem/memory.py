@@ -82,9 +82,9 @@ M_TRIM_THRESHOLD, M_MMAP_THRESHOLD = -1, -3
 """mallopt's parameter numbers (glibc's malloc.h)."""
 
 MMAP_THRESHOLD = 1 << 20
-"""Bytes from which a block of the set-up is mapped on its own and unmapped when freed. Smaller
-blocks stay in the heap: they are many (every small array and Python object) and their waste is
-bounded; at 2,939 disks no particle array reaches it."""
+"""Bytes from which a block of the set-up or of an exchange is mapped on its own and unmapped
+when freed. Smaller blocks stay in the heap: they are many (every small array and Python
+object) and their waste is bounded; at 2,939 disks no particle array reaches it."""
 
 REUSE_MMAP, REUSE_TRIM = 32 << 20, 64 << 20
 """The steps' thresholds: glibc's largest dynamic mmap threshold and its trim threshold then."""

@@ -90,9 +90,9 @@ def main() -> None:
                         f"owned disk), RSS after it {after / 1e6:.0f} MB ({after / n:.0f} B); "
                         f"largest during {args.steps} steps {sampler.top / 1e6:.0f} MB "
                         f"({sampler.top / n:.0f} B; rises: {rises}); {sim.n_rebuilds} builds, "
-                        f"{sim.decomp.n_exchanges} exchanges, {int(sim.pairs.count[0])} pairs; mapped "
-                        f"files {files / 1e6:.0f} MB, private at the peak {private / 1e6:.0f} MB "
-                        f"({private / n:.0f} B per owned disk)",
+                        f"{sim.decomp.n_exchanges} exchanges, {int(sim.pairs.count[0])} pairs; "
+                        f"mapped files {files / 1e6:.0f} MB, private at the peak "
+                        f"{private / 1e6:.0f} MB ({private / n:.0f} B per owned disk)",
                         root=0)
     if comm.rank == 0:
         print("\n".join(lines), flush=True)
