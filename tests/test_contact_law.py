@@ -6,7 +6,9 @@ import math
 import numpy as np
 import pytest
 
-from pardem.contact.model import BATCH, ContactOptions, LawParams, contact_law, pair_force
+from pardem.contact.model import (BATCH, ContactOptions, LawParams, contact_law, pair_force,
+                                  work_size)
+from pardem.forces import contact_forces
 
 LAW = LawParams(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, gamma_t=0.05, k_r=100.0,
                 mu_r=0.1)
@@ -158,7 +160,8 @@ def test_damping_is_weighted_by_the_in_contact_fraction_of_the_step():
 def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     """The batched pair loop gives the same bits as summing standalone kernel calls in pair order
     (guards against compiler inlining and the SIMD law with deferred branches changing
-    results), and records each pair's applied normal and tangential force."""
+    results, and against the loop leaving out a pair that has a force), and records each
+    pair's applied normal and tangential force."""
     from helpers import dense_packing, free_scene
 
     from pardem.simulation import Simulation
@@ -169,6 +172,14 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     sim.advance_steps(200)
     ps, pr = sim.ps, sim.pairs
     xi0 = pr.hist.copy()
+    # three listed pairs that do not touch approach fast enough to touch within half a step:
+    # the damping window gives them a share of the force before they touch
+    count = int(pr.count[0])
+    i, j = pr.i[:count], pr.j[:count]
+    d = ps.x[i] - ps.x[j]
+    gap = np.hypot(*d.T) - ps.radius[i] - ps.radius[j]
+    for k in np.flatnonzero(gap > 0)[np.argsort(gap[gap > 0])][:3]:
+        ps.v[i[k]] = ps.v[j[k]] - 4.0 * gap[k] / sim.prm.dt * d[k] / np.hypot(*d[k])
     sim.refresh()
     f = np.zeros_like(ps.f)
     tau = np.zeros_like(ps.tau)
@@ -193,16 +204,36 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
             tau[j] += r[4]
     # several batches, the last one partial
     assert count > 2 * BATCH and count % BATCH
+    # the loop leaves out pairs farther apart than their own half step of approach; some of
+    # those are within the law's reach test (all-zero results there), others get a share of
+    # the damping before they touch
+    i, j = pr.i[:count], pr.j[:count]
+    dist = np.hypot(*(ps.x[i] - ps.x[j]).T)
+    rs = ps.radius[i] + ps.radius[j]
+    approach = 0.5 * sim.prm.law.dt * np.abs(ps.v_pred[i] - ps.v_pred[j]).sum(axis=1)
+    left_out = dist >= rs + approach
+    assert (left_out & (dist < rs + sim.clock.reach[0])).sum() > 0
+    assert ((dist > rs) & ~left_out & (rec[:, 0] != 0)).sum() >= 3
     if friction:  # sliding contacts (the loop's Coulomb cap, with selects) are exercised
         assert n_sliding > 0
-    np.testing.assert_array_equal(ps.f, f)
-    np.testing.assert_array_equal(ps.tau, tau)
-    np.testing.assert_array_equal(pr.fn[:count], rec[:, 0])
-    np.testing.assert_array_equal(pr.ft[:count], rec[:, 1:])
-    if friction:
-        np.testing.assert_array_equal(pr.hist[:count], xi)
-    else:  # a frictionless scene stores no springs
-        assert pr.hist.size == 0 and not xi.any()
+    # the step loop's call, then the loop called with the selection and without it
+    for fraction in (None, 0.0, 1.0):
+        if fraction is not None:
+            work = np.zeros(work_size(sim.contact))
+            work[-1] = fraction
+            pr.hist[:count] = xi0[:count]
+            pr.fn[:] = np.nan
+            contact_forces(ps, pr, int(sim.clock.n_local[0]), sim.prm, sim.time,
+                           sim.clock.reach[0], sim.contact, sim.options.rotation,
+                           sim.options.walls, work, True)
+        np.testing.assert_array_equal(ps.f, f)
+        np.testing.assert_array_equal(ps.tau, tau)
+        np.testing.assert_array_equal(pr.fn[:count], rec[:, 0])
+        np.testing.assert_array_equal(pr.ft[:count], rec[:, 1:])
+        if friction:
+            np.testing.assert_array_equal(pr.hist[:count], xi)
+        else:  # a frictionless scene stores no springs
+            assert pr.hist.size == 0 and not xi.any()
 
 
 @pytest.mark.parametrize("jitted", [True, False])

@@ -267,7 +267,8 @@ BATCH = 64  # pairs per batch of the force loop: its work rows stay in L1
 
 @nb.njit(**INLINE)
 def work_size(o):
-    return (W_HIST + 2 * history_width(o)) * BATCH
+    """The force loop's work rows, then two elements for forces.contact_forces' choice."""
+    return (W_HIST + 2 * history_width(o)) * BATCH + 2
 
 
 @nb.njit(**INLINE)
