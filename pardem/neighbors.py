@@ -64,8 +64,10 @@ def build_pairs(x, radius, gid, n_own, n_local, n, skin, wall_skin, pi, pj):
     cell = max(cell, math.sqrt(area / (4.0 * n + 16.0)))
     ncx = int((xmax - xmin) / cell) + 1
     ncy = int((ymax - ymin) / cell) + 1
-    start = np.zeros(ncx * ncy + 1, np.int64)  # cell c holds slots start[c]:start[c + 1]
-    cid = np.empty(n, np.int64)
+    # int32 cell ids, slots and rows (local indices are int32, as in Pairs): the build's
+    # temporaries are part of a rank's peak memory at 10^6 disks
+    start = np.zeros(ncx * ncy + 1, np.int32)  # cell c holds slots start[c]:start[c + 1]
+    cid = np.empty(n, np.int32)
     for k in range(n):
         cx = min(int((x[k, 0] - xmin) / cell), ncx - 1)
         cy = min(int((x[k, 1] - ymin) / cell), ncy - 1)
@@ -80,7 +82,7 @@ def build_pairs(x, radius, gid, n_own, n_local, n, skin, wall_skin, pi, pj):
     sy = np.empty(n)
     sr = np.empty(n)
     sg = np.empty(n, np.int64)
-    sk = np.empty(n, np.int64)
+    sk = np.empty(n, np.int32)
     for k in range(n):
         s = fill[cid[k]]
         fill[cid[k]] += 1

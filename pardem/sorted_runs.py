@@ -29,8 +29,12 @@ def run_order(keys, n):
             starts[runs] = k
     runs += 1 if n > 0 else 0
     starts[runs] = n
-    a = np.arange(n)
-    b = np.empty(n, np.int64)
+    # int32 indices (a rank's rows are int32-indexed anyway, as in Pairs): the two index
+    # arrays are a neighbour build's largest temporaries after the cell copies
+    a = np.empty(n, np.int32)
+    for k in range(n):
+        a[k] = k
+    b = np.empty(n, np.int32)
     while runs > 1:
         merged = 0
         for r in range(0, runs, 2):

@@ -7,12 +7,13 @@ Builds the scene on the ranks of COMM_WORLD (the placement, or the checkpoint ``
 each rank's share, the first exchange and neighbour build), runs ``--steps`` steps, and prints
 per rank the seconds of ``Simulation(scene)``, the largest resident set size of the set-up
 (``ru_maxrss``: the imports, the compiled kernels and the peak of the set-up included), the
-resident set after it, and the largest one during the steps (``VmRSS`` sampled every 2 ms), in
-MB and in bytes per owned disk, with the stage in which the resident set rose (``build``: a
+resident set after it, and the largest one of the whole run (``ru_maxrss`` again), in MB and
+in bytes per owned disk, with the stages that raised that peak during the steps (``build``: a
 neighbour build, ``exchange``: one that also migrates and selects ghosts, ``steps``: the
-compiled step loop). The C heap keeps what it freed for reuse, so the resident set rises at the
-largest transient of a stage and stays there. Run it once beforehand, so that the kernels come
-from numba's cache (compiling takes memory of its own). To compare two versions of the code,
+compiled step loop), and the resident set after the steps. Peaks inside a compiled call last
+milliseconds, so only the kernel's high-water mark sees them (a thread sampling ``VmRSS`` every
+2 ms missed a 1M-disk run's exchange by 30 MB). Run it once beforehand, so that the kernels
+come from numba's cache (compiling takes memory of its own). To compare two versions of the code,
 run it with ``PYTHONPATH`` pointing to each (e.g. a ``git worktree`` of the older commit),
 alternately.
 """
@@ -21,7 +22,6 @@ from __future__ import annotations
 
 import argparse
 import resource
-import threading
 import time
 
 
@@ -31,20 +31,9 @@ def resident(field: int = 1) -> int:
         return int(f.read().split()[field]) * resource.getpagesize()
 
 
-class Sampler(threading.Thread):
-    """The largest resident set while running, and how much each stage raised it (bytes)."""
-
-    def __init__(self):
-        super().__init__(daemon=True)
-        self.stage, self.top, self.rises, self.running = "steps", resident(), {}, True
-
-    def run(self):
-        while self.running:
-            now = resident()
-            if now > self.top:
-                self.rises[self.stage] = self.rises.get(self.stage, 0) + now - self.top
-                self.top = now
-            time.sleep(0.002)
+def high_water() -> int:
+    """The largest resident set so far (bytes)."""
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
 
 
 def main() -> None:
@@ -63,33 +52,34 @@ def main() -> None:
     sim = Simulation(load_scene(args.scene), comm=comm if comm.size > 1 else None,
                      restart=args.restart)
     took = time.perf_counter() - t0
-    at_setup = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024
-    sampler = Sampler()
-    after = sampler.top
+    at_setup = high_water()
+    after = resident()
     original = Simulation._rebuild
 
+    peak_rises = {}
+
     def staged(self, *a, **k):
-        sampler.stage = "exchange" if self.decomp.parallel and k.get("exchange", True) else \
-            "build"
+        stage = "exchange" if self.decomp.parallel and k.get("exchange", True) else "build"
+        before = high_water()
         try:
             return original(self, *a, **k)
         finally:
-            sampler.stage = "steps"
+            peak_rises[stage] = peak_rises.get(stage, 0) + high_water() - before
 
     Simulation._rebuild = staged
-    sampler.start()
     sim.advance_steps(args.steps)
-    sampler.running = False
-    sampler.join()
+    peak = high_water()
+    peak_rises["steps"] = peak - at_setup - sum(peak_rises.values())
     n = int(sim.clock.n_owned[0])
     files = resident(2)
-    private = max(at_setup, sampler.top) - files
-    rises = ", ".join(f"{k} +{v / 1e6:.0f} MB" for k, v in sampler.rises.items()) or "none"
+    private = peak - files
+    rises = ", ".join(f"{k} +{v / 1e6:.0f} MB" for k, v in peak_rises.items() if v) or "none"
     lines = comm.gather(f"rank {comm.rank}: {n} owned disks, set-up {took:.1f} s; largest RSS "
                         f"of the set-up {at_setup / 1e6:.0f} MB ({at_setup / n:.0f} B per "
                         f"owned disk), RSS after it {after / 1e6:.0f} MB ({after / n:.0f} B); "
-                        f"largest during {args.steps} steps {sampler.top / 1e6:.0f} MB "
-                        f"({sampler.top / n:.0f} B; rises: {rises}); {sim.n_rebuilds} builds, "
+                        f"RSS after {args.steps} steps {resident() / 1e6:.0f} MB; largest of "
+                        f"the run {peak / 1e6:.0f} MB ({peak / n:.0f} B; raised by: {rises}); "
+                        f"{sim.n_rebuilds} builds, "
                         f"{sim.decomp.n_exchanges} exchanges, {int(sim.pairs.count[0])} pairs; "
                         f"mapped files {files / 1e6:.0f} MB, private at the peak "
                         f"{private / 1e6:.0f} MB ({private / n:.0f} B per owned disk)",

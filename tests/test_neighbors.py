@@ -1,8 +1,9 @@
 """Cell-list pairs equal brute-force pairs; history is carried by gid keys."""
 
 import numpy as np
+import pytest
 
-from pardem.contact.history import carry_history
+from pardem.contact.history import carry_history, merge_history
 from pardem.neighbors import build_pairs
 from pardem.sorted_runs import run_order
 from pardem.testing import brute_force_pairs
@@ -76,6 +77,42 @@ def test_carry_history_matches_by_gid_keys():
     new_xi = np.full((5, 2), -1.0)
     carry_history(old_lo, old_hi, old_xi, gid, new_lo, new_hi, new_xi)
     np.testing.assert_array_equal(new_xi, [[2, 3], [0, 0], [4, 5], [6, 7], [0, 0]])
+
+
+def test_carry_history_takes_columns_from_an_offset():
+    """A table's columns into two arrays: the ones a list's forces (fn, ft) are restored into."""
+    lo, hi = np.array([0, 2]), np.array([1, 4])
+    table = np.arange(6.0).reshape(2, 3)  # (fn, ftx, fty) per pair
+    gid = np.arange(5)
+    pi, pj = np.array([0, 1, 2]), np.array([1, 2, 4])
+    fn, ft = np.full((3, 1), -1.0), np.full((3, 2), -1.0)
+    carry_history(lo, hi, table, gid, pi, pj, fn)
+    carry_history(lo, hi, table, gid, pi, pj, ft, 1)
+    np.testing.assert_array_equal(fn[:, 0], [0, 0, 3])
+    np.testing.assert_array_equal(ft, [[1, 2], [0, 0], [4, 5]])
+
+
+def test_merge_history_joins_a_sorted_table_and_rows_in_any_order():
+    """Against a dictionary filled in the documented precedence: the table's rows (the first of
+    a repeated key), then the rows in their given order; output sorted by (lo, hi)."""
+    rng = np.random.default_rng(7)
+    pairs = sorted({(int(a), int(a + b)) for a, b in rng.integers(1, 40, (120, 2))})
+    table = pairs[::2] + [pairs[4]]  # one key twice, as in tables gathered from two ranks
+    table.sort()
+    lo, hi = (np.array(c, np.int64) for c in zip(*table))
+    xi = rng.normal(size=(len(table), 3))
+    keys = [pairs[k] for k in rng.integers(0, len(pairs), 60)]  # new keys, table keys, repeats
+    rows = np.column_stack([np.array(keys, float), rng.normal(size=(60, 3))])
+    want = {}
+    for key, row in list(zip(table, xi)) + [(k, r[2:]) for k, r in zip(keys, rows)]:
+        want.setdefault(key, row)
+    got_lo, got_hi, got_xi = merge_history(lo, hi, xi, rows)
+    assert list(zip(got_lo.tolist(), got_hi.tolist())) == sorted(want)
+    np.testing.assert_array_equal(got_xi, np.array([want[k] for k in sorted(want)]))
+    empty = merge_history(lo[:0], hi[:0], xi[:0], rows[:0])
+    assert empty[0].size == empty[1].size == empty[2].shape[0] == 0
+    with pytest.raises(ValueError, match="not sorted"):
+        merge_history(lo[::-1].copy(), hi[::-1].copy(), xi[::-1].copy(), rows[:0])
 
 
 def test_run_order_sorts_any_number_of_ascending_runs_stably():

@@ -20,10 +20,11 @@ SHIFT, LOW = 32, (1 << 32) - 1  # a pair's sort key: (gid_lo << 32) | gid_hi; gi
 
 
 @nb.njit(**JIT)
-def carry_history(old_lo, old_hi, old_xi, gid, pi, pj, new_xi):
-    """Copy history rows (every column) from a table keyed by (lo, hi) gids and sorted by them,
-    to the pairs (pi, pj) of a new list (local indices, gid-sorted); absent pairs start with
-    zeros."""
+def carry_history(old_lo, old_hi, old_xi, gid, pi, pj, new_xi, first=0):
+    """Copy history rows from a table keyed by (lo, hi) gids and sorted by them, to the pairs
+    (pi, pj) of a new list (local indices, gid-sorted); absent pairs start with zeros. Columns
+    ``first`` onwards of ``old_xi``, as many as ``new_xi`` has (a table's columns go to two
+    arrays without a copy of the table)."""
     p = 0
     n_old = old_lo.size
     for k in range(new_xi.shape[0]):
@@ -33,7 +34,7 @@ def carry_history(old_lo, old_hi, old_xi, gid, pi, pj, new_xi):
             p += 1
         found = p < n_old and old_lo[p] == lo and old_hi[p] == hi
         for c in range(new_xi.shape[1]):
-            new_xi[k, c] = old_xi[p, c] if found else 0.0
+            new_xi[k, c] = old_xi[p, first + c] if found else 0.0
 
 
 @nb.njit(**JIT)
@@ -61,34 +62,39 @@ def live_history(gid, pi, pj, xi, count):
 
 @nb.njit(**JIT)
 def merge_history(lo, hi, xi, rows):
-    """A history table (lo, hi, xi [m, w]) joined with more rows [m', 2 + w] (lo, hi, the w
-    columns), sorted by (lo, hi), duplicates dropped (a pair seen by two ranks has the same
-    history on both: same inputs, same arithmetic)."""
-    n = lo.size + rows.shape[0]
+    """A history table (lo, hi, xi [m, w]), sorted by (lo, hi), joined with more rows
+    [m', 2 + w] (lo, hi, the w columns; any order), sorted by (lo, hi), duplicates dropped (a
+    pair seen by two ranks has the same history on both: same inputs, same arithmetic; the
+    table's row is kept, then the first of the rows). The rows are few (a migration's springs)
+    and only they are sorted: the table goes through once, without a sorted copy of it, since
+    at 10^6 disks such copies were an exchange's peak memory."""
     w = rows.shape[1] - 2
-    key = np.empty(n, np.int64)
-    vals = np.empty((n, w))
-    for k in range(lo.size):
-        key[k] = (lo[k] << SHIFT) | hi[k]
-        copy_values(vals[k], xi[k])
-    for k in range(rows.shape[0]):
-        key[lo.size + k] = (int(rows[k, 0]) << SHIFT) | int(rows[k, 1])
-        copy_values(vals[lo.size + k], rows[k, 2:])
-    order = run_order(key, n)  # the table, then each rank's springs: sorted runs
-    m = 0
-    for k in range(n):
-        m += k == 0 or key[order[k]] != key[order[k - 1]]
-    out_lo = np.empty(m, np.int64)
-    out_hi = np.empty(m, np.int64)
-    out_xi = np.empty((m, w))
-    q = 0
-    for k in range(n):
-        if k == 0 or key[order[k]] != key[order[k - 1]]:
-            out_lo[q] = key[order[k]] >> SHIFT
-            out_hi[q] = key[order[k]] & LOW
-            copy_values(out_xi[q], vals[order[k]])
+    n_t, n_r = lo.size, rows.shape[0]
+    rkey = np.empty(n_r, np.int64)
+    for k in range(n_r):
+        rkey[k] = (int(rows[k, 0]) << SHIFT) | int(rows[k, 1])
+    rorder = run_order(rkey, n_r)
+    out_lo = np.empty(n_t + n_r, np.int64)
+    out_hi = np.empty(n_t + n_r, np.int64)
+    out_xi = np.empty((n_t + n_r, w))
+    m, p, q, last = 0, 0, 0, -1
+    while p < n_t or q < n_r:
+        tkey = (lo[p] << SHIFT) | hi[p] if p < n_t else -1
+        if p < n_t and (q == n_r or tkey <= rkey[rorder[q]]):  # ties: the table's row first
+            if p and tkey < ((lo[p - 1] << SHIFT) | hi[p - 1]):
+                raise ValueError("merge_history: the history table is not sorted by key")
+            key, row = tkey, xi[p]
+            p += 1
+        else:
+            key, row = rkey[rorder[q]], rows[rorder[q], 2:]
             q += 1
-    return out_lo, out_hi, out_xi
+        if key != last:
+            out_lo[m] = key >> SHIFT
+            out_hi[m] = key & LOW
+            copy_values(out_xi[m], row)
+            m += 1
+            last = key
+    return out_lo[:m], out_hi[:m], out_xi[:m]
 
 
 NO_HISTORY = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))

@@ -83,6 +83,7 @@ def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, ha
     received = receive_rows(ps, counts, owner, (rbuf, recv_off), plan, history, t, prm,
                             handles, err == 0)
     written, _, n_own, n_near, _, _, _, ghosts, springs, buffers = received
+    history = None  # merged into springs: not kept through the build (peak memory at 10^6)
     peer_at, need = np.zeros(0, np.int64), 0
     if plan.shared:
         peer_at, need, err2 = peer_offsets(buffers[0], buffers[1], buffers[2], handles)
