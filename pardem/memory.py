@@ -16,11 +16,14 @@ with a fixed threshold that unmaps them (``unmap_freed_arrays``). The steps then
 the same few sizes at every build, which the heap reuses without touching new pages
 (``reuse_freed_arrays``, glibc's own policy once it has grown); only an exchange, every few
 builds, gives its blocks back (``unmapped``): they have sizes no build makes, so the heap would
-grow by them once more. It first returns the builds' blocks the heap kept, so that its arrays
-do not come on top of them (``give_back_free_heap``; the next build maps its blocks again). Unmapped, each build's temporaries would cost fresh pages (7-13 % more
-time at 1M disks building every 16 steps, for 2 % less memory). At 1M disks on 2 ranks in a
-dense packing (600 steps, 37 builds, 6 exchanges) the set-up's peak fell from 540-552 to 465-473
-MB per rank and the steps' from 556-560 to 472-477 MB, ~940 B per owned disk (docs/scaling.md).
+grow by them once more. It first returns the builds' blocks the heap kept, so that its arrays do
+not come on top of them (``give_back_free_heap``; the next build maps its blocks again).
+Unmapped, each build's temporaries would cost fresh pages (7-13 % more time at 1M disks building
+every 16 steps, for 2 % less memory). At 1M disks on 2 ranks in a dense packing (600 steps, 37
+builds, 6 exchanges) the set-up's peak fell from 540-552 to 465-473 MB per rank and the steps'
+from 556-560 to 472-477 MB, ~940 B per owned disk; in its loose, sheared state at 8 s the busiest
+rank's peak fell from 1,060-1,069 to 983-992 B per owned disk with the trim before exchanges and
+lighter merges of the contact history (docs/scaling.md).
 """
 
 from __future__ import annotations
