@@ -94,15 +94,21 @@ REUSE_MMAP, REUSE_TRIM = 32 << 20, 64 << 20
 """The steps' thresholds: glibc's largest dynamic mmap threshold and its trim threshold then."""
 
 
+def _libc(name: str, argtypes: tuple):
+    """The C library's function ``name`` (returning int), or None where it has none."""
+    try:
+        fn = getattr(ctypes.CDLL(None), name)
+    except (OSError, AttributeError):
+        return None
+    fn.argtypes, fn.restype = argtypes, ctypes.c_int
+    return fn
+
+
 def _mallopt(settings: tuple[tuple[int, int], ...]) -> bool:
     """Set glibc malloc parameters (process-wide; a fixed mmap threshold also turns off its
     growth). False where the C library has no ``mallopt`` or refuses one (not glibc)."""
-    try:
-        mallopt = ctypes.CDLL(None).mallopt
-    except (OSError, AttributeError):
-        return False
-    mallopt.argtypes, mallopt.restype = (ctypes.c_int, ctypes.c_int), ctypes.c_int
-    return all([mallopt(p, v) == 1 for p, v in settings])
+    mallopt = _libc("mallopt", (ctypes.c_int, ctypes.c_int))
+    return mallopt is not None and all([mallopt(p, v) == 1 for p, v in settings])
 
 
 def unmap_freed_arrays() -> bool:
@@ -117,12 +123,8 @@ def reuse_freed_arrays() -> bool:
 
 def give_back_free_heap() -> bool:
     """The heap's free blocks returned to the system (glibc's ``malloc_trim``)."""
-    try:
-        trim = ctypes.CDLL(None).malloc_trim
-    except (OSError, AttributeError):
-        return False
-    trim.argtypes, trim.restype = (ctypes.c_size_t,), ctypes.c_int
-    return trim(0) == 1
+    trim = _libc("malloc_trim", (ctypes.c_size_t,))
+    return trim is not None and trim(0) == 1
 
 
 @contextmanager

@@ -77,13 +77,13 @@ def merge_history(lo, hi, xi, rows):
     out_lo = np.empty(n_t + n_r, np.int64)
     out_hi = np.empty(n_t + n_r, np.int64)
     out_xi = np.empty((n_t + n_r, w))
-    m, p, q, last = 0, 0, 0, -1
+    m, p, q, last, prev = 0, 0, 0, -1, -1  # prev: the table's previous key
     while p < n_t or q < n_r:
         tkey = (lo[p] << SHIFT) | hi[p] if p < n_t else -1
         if p < n_t and (q == n_r or tkey <= rkey[rorder[q]]):  # ties: the table's row first
-            if p and tkey < ((lo[p - 1] << SHIFT) | hi[p - 1]):
+            if tkey < prev:
                 raise ValueError("merge_history: the history table is not sorted by key")
-            key, row = tkey, xi[p]
+            key, row, prev = tkey, xi[p], tkey
             p += 1
         else:
             key, row = rkey[rorder[q]], rows[rorder[q], 2:]
