@@ -26,9 +26,10 @@ from .walls import outer_radius, ring_surface
 
 # The selection pays while fewer than this fraction of the listed pairs have a force (B in
 # steady shear: 0.27; B at 20 s, still dense: 0.63); above it every listed pair goes to the
-# law. The fraction is measured by each selecting call, and also every RECHECK calls while
-# every pair is computed, so a packing that loosens is noticed. ``work``'s last two elements
-# keep it and the calls since.
+# law. The selecting loop measures the fraction at every call; while every pair is computed,
+# it is counted every RECHECK calls (a vectorised pass over the law's output, ~1 % of the
+# call), so a packing that loosens is noticed. ``work``'s last two elements keep the fraction
+# and the calls since it was counted.
 SELECT_BELOW = 0.5
 RECHECK = 100
 
@@ -57,18 +58,20 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
     for k in range(n_loc):
         st[k] = 0.0
     calls = work[work.size - 2]
-    if work[work.size - 1] < SELECT_BELOW or calls >= RECHECK:
+    if work[work.size - 1] < SELECT_BELOW:
         work[work.size - 1] = selected_pairs(ps, pairs, prm, reach, o, rotation, work, record)
+    elif calls >= RECHECK:
+        work[work.size - 1] = every_pair(ps, pairs, prm, reach, o, rotation, work, record, True)
         work[work.size - 2] = 0.0
     else:
-        every_pair(ps, pairs, prm, reach, o, rotation, work, record)
+        every_pair(ps, pairs, prm, reach, o, rotation, work, record, False)
         work[work.size - 2] = calls + 1.0
     if walls:
         ring_contacts(ps, pairs, prm, t, reach, o, rotation, record)
 
 
 @nb.njit(**JIT)
-def every_pair(ps, pairs, prm, reach, o, rotation, work, record):
+def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure):
     """Every listed pair through three loops per batch:
       gather   copy each pair's inputs into the work rows (unsigned indices: numba then adds
                no negative-index wrap-around, which spilled registers here);
@@ -82,7 +85,11 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record):
     The flat views are made once here: made per batch, their reference counting cost more
     than the gather. selected_pairs repeats the gather and the scatter: made inline
     functions shared by both, they made this loop twice as slow (B at 20 s, one process,
-    alternated: 123 against 63 ns per particle)."""
+    alternated: 123 against 63 ns per particle). With ``measure``, returns the fraction of
+    the listed pairs with a normal force (else 0): counted here rather than by a call of
+    selected_pairs, which costs a dense packing more than the count (B at 2.5 s: 2-3 % of the
+    step, with a selecting call every 100 and at every build), and apart from the scatter,
+    whose serial chain an added count lengthened by ~7 %."""
     n_hist = history_width(o)
     hw = np.uint64(n_hist)
     gx, gv, gw, ga = ps.x.reshape(-1), ps.v_pred.reshape(-1), ps.w_pred, ps.radius
@@ -93,6 +100,7 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record):
     h_in = np.uint64(W_HIST * BATCH)
     h_out = h_in + hw * np.uint64(BATCH)
     n_pairs = pairs.count[0]
+    n_force = 0
     for first in range(0, n_pairs, BATCH):
         m = min(BATCH, n_pairs - first)
         for ln in range(m):
@@ -112,6 +120,9 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record):
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
             touching, _ = lane_contact(work, ln, reach, prm.law, o, True)  # nothing deferred
             work[W_ACT * BATCH + ln] = 1.0 if touching else 0.0
+        if measure:
+            for ln in range(m):
+                n_force += 1 if work[W_FN * BATCH + ln] != 0.0 else 0
         cur = np.uint64(pi[first])
         acc_x = sf[cur + cur]
         acc_y = sf[cur + cur + one]
@@ -147,6 +158,7 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record):
         sf[cur + cur] = acc_x
         sf[cur + cur + one] = acc_y
         st[cur] = acc_t
+    return n_force / n_pairs if n_pairs else 0.0
 
 
 @nb.njit(**JIT)

@@ -38,7 +38,7 @@ import numba as nb
 import numpy as np
 
 from .contact.model import ContactOptions, work_size
-from .forces import contact_forces
+from .forces import RECHECK, contact_forces
 from .integrate import drift, kick, wall_travel
 from .jit import JIT
 from .static import static
@@ -83,6 +83,8 @@ def make_stepper(opts: StepOptions) -> Stepper:
         n_all = clock.n_local[0] + clock.n_ghost[0]
         scratch = np.empty((2, n_owned))
         work = np.zeros(work_size(o))
+        work[work.size - 1] = 1.0  # the first call computes every pair and counts
+        work[work.size - 2] = RECHECK
         forces_only = clock.phase[0] == FORCES_ONLY
         if forces_only:  # synchronous velocities
             for k in range(n_all):

@@ -8,7 +8,7 @@ import pytest
 
 from pardem.contact.model import (BATCH, ContactOptions, LawParams, contact_law, pair_force,
                                   work_size)
-from pardem.forces import contact_forces
+from pardem.forces import RECHECK, contact_forces
 
 LAW = LawParams(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, gamma_t=0.05, k_r=100.0,
                 mu_r=0.1)
@@ -216,16 +216,20 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     assert ((dist > rs) & ~left_out & (rec[:, 0] != 0)).sum() >= 3
     if friction:  # sliding contacts (the loop's Coulomb cap, with selects) are exercised
         assert n_sliding > 0
-    # the step loop's call, then the loop called with the selection and without it
-    for fraction in (None, 0.0, 1.0):
+    # the step loop's call, then the loop called with the selection, without it, and without
+    # it counting the pairs with a force (as it does every RECHECK calls)
+    for fraction, calls in ((None, 0), (0.0, 0), (1.0, 0), (1.0, RECHECK)):
         if fraction is not None:
             work = np.zeros(work_size(sim.contact))
-            work[-1] = fraction
+            work[-1], work[-2] = fraction, calls
             pr.hist[:count] = xi0[:count]
             pr.fn[:] = np.nan
             contact_forces(ps, pr, int(sim.clock.n_local[0]), sim.prm, sim.time,
                            sim.clock.reach[0], sim.contact, sim.options.rotation,
                            sim.options.walls, work, True)
+            # both loops that count find the share of listed pairs with a normal force
+            counted = fraction == 0.0 or calls == RECHECK
+            assert work[-1] == (np.count_nonzero(rec[:, 0]) / count if counted else fraction)
         np.testing.assert_array_equal(ps.f, f)
         np.testing.assert_array_equal(ps.tau, tau)
         np.testing.assert_array_equal(pr.fn[:count], rec[:, 0])

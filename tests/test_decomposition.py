@@ -195,6 +195,33 @@ def test_a_requested_cut_is_used_and_a_bad_one_is_refused_clearly():
         choice.choose(x, 16, "sectors", 0.05, 0.03, 0.04)
 
 
+def test_a_re_cut_keeps_the_sectors_in_place_and_migrates_only_the_excess():
+    """Two sectors holding n0 > n1 points are evened out by moving one edge past (n0 - n1) / 2
+    points, the fewest any re-cut can migrate. Emptying a band inside sector 0 makes it the
+    emptiest place of the annulus, where a first cut would start: a re-cut must not rotate the
+    sectors there (which would hand over about half of every sector)."""
+    x = uniform_annulus(40_000, 0.104, 0.253)
+    old, r_top = choice.choose(x, 2, "sectors", 0.104, 0.003, 0.004)
+    a = np.arctan2(x[:, 1], x[:, 0])
+    middle = old.edges[0, 0] + 0.5 * (old.edges[0, 1] - old.edges[0, 0])
+    x = x[np.abs((a - middle + math.pi) % (2 * math.pi) - math.pi) > 0.3]
+    n0, n1 = np.bincount(old.owner(x), minlength=2)
+    assert n0 < 0.85 * n1  # the band took ~19 % of sector 0: a re-cut is due
+    new = choice.cut_for(x, 2, 1, r_top, previous=old)
+    owner_new = new.owner(x)
+    counts = np.bincount(owner_new, minlength=2)
+    per_bin = cut.angle_histogram(x, choice.HIST_BINS).max()
+    assert abs(counts[0] - counts[1]) <= 2 * per_bin
+    moved = int(np.count_nonzero(owner_new != old.owner(x)))
+    assert moved <= (n1 - n0) / 2 + 2 * per_bin
+    # rings of sectors: each ring keeps its first edge, and the domains are evened out
+    old, r_top = choice.choose(x, 4, "2x2", 0.104, 0.003, 0.004)
+    new = choice.cut_for(x[x[:, 0] > -0.2], 4, 2, r_top, previous=old)
+    assert np.array_equal(new.edges[:, 0], old.edges[:, 0])
+    counts = np.bincount(new.owner(x[x[:, 0] > -0.2]), minlength=4)
+    assert counts.min() > 0.98 * counts.max()
+
+
 @pytest.mark.parametrize("hist", [0, 2, 3, 5])
 def test_packed_rows_come_back_unchanged(hist):
     ps = new_particles(50, hist)

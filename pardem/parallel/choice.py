@@ -44,16 +44,21 @@ def requested_rings(text: str, ranks: int) -> int | None:
                      f"2x4, their product the number of ranks)")
 
 
-def cut_for(x: np.ndarray, ranks: int, rings: int, r_top: float, total=lambda h: h) -> ct.Cut:
+def cut_for(x: np.ndarray, ranks: int, rings: int, r_top: float, total=lambda h: h,
+            previous: ct.Cut | None = None) -> ct.Cut:
     """``rings`` rings of sectors with about equal counts of the points x [n,2] (m) in every
     domain (``r_top``: m, beyond every point; the radial histogram's range). ``total``: each
     histogram of x summed over the ranks (under MPI, where every rank holds part of the points;
-    the same cut on every rank)."""
+    the same cut on every rank). ``previous``: the cut this one replaces (a re-cut with as many
+    rings): each ring keeps its first sector edge, so the sectors do not rotate and only the
+    particles near the moved edges migrate."""
+    firsts = None if previous is None else previous.edges[:, 0]
     if rings == 1:
-        return ct.balanced(total(ct.angle_histogram(x, HIST_BINS)), ranks)
+        return ct.balanced(total(ct.angle_histogram(x, HIST_BINS)), ranks,
+                           None if firsts is None else float(firsts[0]))
     radii = ct.ring_radii(total(ct.radius_histogram(x, r_top, HIST_BINS)), r_top, rings)
     return ct.balanced_rings(radii, total(ct.ring_histograms(x, radii, HIST_BINS)),
-                             ranks // rings)
+                             ranks // rings, firsts)
 
 
 def narrowest(cut: ct.Cut, inner_radius: float, outer: float) -> float:

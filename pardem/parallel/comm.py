@@ -137,7 +137,8 @@ class Decomposition:
         counts = np.array(self.comm.allgather(x_owned.shape[0]))
         if ct.imbalance(counts) <= self.balance_threshold:
             return
-        self.cut = cut_for(x_owned, self.size, self.cut.rings, self.r_top, self._summed)
+        self.cut = cut_for(x_owned, self.size, self.cut.rings, self.r_top, self._summed,
+                           previous=self.cut)
         self.n_rebalanced += 1
 
     def _summed(self, hist: np.ndarray) -> np.ndarray:

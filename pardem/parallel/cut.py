@@ -186,16 +186,21 @@ def ghost_counts(x, radii, edges, width):
     return out
 
 
-def angular_edges(hist: np.ndarray, parts: int) -> np.ndarray:
+def angular_edges(hist: np.ndarray, parts: int, first: float | None = None) -> np.ndarray:
     """Edges [parts+1] (rad) of sectors with about equal counts, cut at bin edges of an angular
-    histogram (``hist`` [B]: counts in B equal bins over [-pi, pi))."""
+    histogram (``hist`` [B]: counts in B equal bins over [-pi, pi)). ``first`` (rad): keep the
+    first edge at the bin edge nearest this angle (a re-cut: the sectors keep their place and
+    order, so only the particles between an old and a new edge migrate); None: start at the
+    emptiest bin edge, so that the wrap-around is cheap to cut (the first cut)."""
     if parts == 1:
         return np.array([-math.pi, math.pi])
     bins = hist.size
     cum = np.concatenate([[0], np.cumsum(hist)])
     total = cum[-1]
-    # The first cut sits at the emptiest bin edge, so that the wrap-around is cheap to cut.
-    start = int(np.argmin(hist))
+    if first is None:
+        start = int(np.argmin(hist))
+    else:
+        start = int(round((first + math.pi) / TWO_PI * bins)) % bins
     cum = np.concatenate([cum[start:-1] - cum[start], cum[:start + 1] + total - cum[start]])
     return -math.pi + TWO_PI * (start + _cuts(cum, parts, bins)) / bins
 
@@ -210,9 +215,9 @@ def _cuts(cum: np.ndarray, parts: int, bins: int) -> np.ndarray:
     return np.concatenate([[0], cuts, [bins]])
 
 
-def balanced(hist: np.ndarray, ranks: int) -> Cut:
+def balanced(hist: np.ndarray, ranks: int, first: float | None = None) -> Cut:
     """Sectors with about equal counts (``angular_edges``)."""
-    return sectors(angular_edges(hist, ranks))
+    return sectors(angular_edges(hist, ranks, first))
 
 
 def ring_radii(hist: np.ndarray, r_top: float, rings: int) -> np.ndarray:
@@ -224,10 +229,13 @@ def ring_radii(hist: np.ndarray, r_top: float, rings: int) -> np.ndarray:
     return r
 
 
-def balanced_rings(radii: np.ndarray, hists: np.ndarray, per_ring: int) -> Cut:
+def balanced_rings(radii: np.ndarray, hists: np.ndarray, per_ring: int,
+                   firsts: np.ndarray | None = None) -> Cut:
     """Rings ``radii`` of ``per_ring`` sectors each with about equal counts (``hists`` [R, B]:
-    each ring's angular histogram)."""
-    return Cut(radii, np.array([angular_edges(h, per_ring) for h in hists]))
+    each ring's angular histogram; ``firsts`` [R]: each ring's first edge to keep, rad, as in
+    ``angular_edges``)."""
+    firsts = [None] * len(hists) if firsts is None else firsts
+    return Cut(radii, np.array([angular_edges(h, per_ring, f) for h, f in zip(hists, firsts)]))
 
 
 def angle_histogram(x: np.ndarray, bins: int) -> np.ndarray:
