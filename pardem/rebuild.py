@@ -12,7 +12,8 @@ import numpy as np
 
 from .contact.history import NO_HISTORY
 from .memory import unmapped
-from .neighbors import build_lists
+from .integrate import wall_travel
+from .neighbors import build_lists, next_wall_skin
 from .state import (ROW_ROOM, new_pairs, new_particles, packed, row_width,
                     unpack_particles)
 from .walls import place_wall_disks
@@ -23,6 +24,9 @@ def rebuild(sim, history=None, rebalance: bool = True, exchange: bool = True) ->
     exchange ghosts (which usually builds the lists too). The history is carried over by
     gid keys (from ``history`` if given, else from the current list)."""
     count, n_wall = -1, -1  # lists not built yet
+    if sim.prm.wall_disks:  # every rank builds at the same step: the same skin everywhere
+        sim.prm = sim.prm._replace(wall_skin=next_wall_skin(wall_travel(sim.clock, sim.prm),
+                                                            sim.prm.skin))
     if sim.decomp.parallel and exchange:
         with unmapped():  # its blocks fit no build's (memory.py)
             history, (count, n_wall) = migrate(sim, history, rebalance)

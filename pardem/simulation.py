@@ -105,7 +105,7 @@ class Simulation(StateViews):
         self.prm = Params(law_params(c, self.dt), rings_of(g), self.dt, skin,
                           c.mu_bottom * c.gravity, math.inf,
                           wall_skin=WALL_SKINS * skin if inner or outer else 0.0,
-                          inner_disks=float(inner))
+                          inner_disks=float(inner), wall_disks=float(inner or outer))
         prepare_memory(scene, comm)
         init = initial_configuration(scene)
         self.n_free = init.n_free

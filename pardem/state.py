@@ -104,7 +104,8 @@ class Params(NamedTuple):
     farther than this from the axis is an error; free scenes: inf; Couette scenes check
     against the rings' current radii instead), wall_skin (m: the extra skin of a free disk's
     pairs with wall disks, whose prescribed motion then does not force a build every skin/2;
-    0 without wall disks), inner_disks (1.0 if the inner ring carries wall disks, else 0.0)."""
+    set at each build, ``neighbors.next_wall_skin``), inner_disks (1.0 if the inner ring
+    carries wall disks, else 0.0), wall_disks (1.0 if either ring does)."""
 
     law: LawParams
     rings: Rings
@@ -114,6 +115,7 @@ class Params(NamedTuple):
     escape_radius: float
     wall_skin: float = 0.0
     inner_disks: float = 0.0
+    wall_disks: float = 0.0
 
 
 class Clock(NamedTuple):

@@ -5,18 +5,24 @@ import pytest
 from helpers import couette_scene
 
 from averaging.boundary import inner_ring_torque
+from pardem.neighbors import WALL_SKINS, next_wall_skin
 from pardem.simulation import Simulation
 from pardem.testing import brute_force_pairs
 
 
-def test_verlet_list_always_holds_every_touching_pair():
+@pytest.mark.parametrize("omega", [3.0, 0.05])
+def test_verlet_list_always_holds_every_touching_pair(omega):
     """A fast compression and a fast inner ring: builds come from the free disks and from the
-    walls' travel (free-wall pairs are listed wall_skin farther)."""
+    walls' travel (free-wall pairs are listed wall_skin farther, a skin chosen at each build
+    from the walls' last travel: a fast ring gets some, a slow ring none once the compression
+    is over). The lists hold every touching pair whatever the skin."""
     sim = Simulation(couette_scene(counts=(400, 60), geometry={
         "outer_start_radius": 0.17, "outer_radius": 0.15, "compression_time": 0.1,
-        "omega_inner": 3.0}))
+        "omega_inner": omega}))
+    skins = []
     for _ in range(30):
         sim.advance_steps(97)
+        skins.append(sim.prm.wall_skin / sim.prm.skin)
         n = sim.clock.n_local[0]
         listed = {(int(sim.ps.gid[i]), int(sim.ps.gid[j]))
                   for i, j in zip(sim.pairs.i[: sim.pairs.count[0]],
@@ -25,6 +31,22 @@ def test_verlet_list_always_holds_every_touching_pair():
                                      sim.ps.kind[:n], 0.0)
         assert touching <= listed
     assert sim.n_rebuilds > 3
+    assert max(skins) <= WALL_SKINS
+    if omega > 1.0:  # the inner ring's rim moves 0.3 m/s, faster than most free disks
+        assert max(skins[10:]) > 0.0
+    else:  # 5 mm/s: once the outer ring stops, the free disks end every interval
+        assert max(skins[-10:]) == 0.0
+
+
+def test_wall_skin_covers_the_walls_travel_beyond_the_free_disks_half_skin():
+    """Walls that travel t per interval need t - skin/2 more reach for pairs with them (the
+    free disks' own test leaves skin/2), with a quarter of t to spare, from 0 to 2 skins."""
+    skin = 1e-3
+    assert next_wall_skin(0.0, skin) == 0.0
+    assert next_wall_skin(0.4 * skin, skin) == 0.0  # 1.25 x 0.4 = 0.5: nothing needed
+    assert next_wall_skin(skin, skin) == pytest.approx(0.75 * skin)
+    assert next_wall_skin(2.0 * skin, skin) == pytest.approx(2.0 * skin)
+    assert next_wall_skin(100.0 * skin, skin) == WALL_SKINS * skin
 
 
 def test_trajectory_does_not_depend_on_the_skin():
