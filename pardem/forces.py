@@ -19,7 +19,7 @@ import numpy as np
 
 from .contact.model import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX,
                             W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ,
-                            history_width, lane_contact, surface_contact)
+                            history_width, lane_contact, surface_contact, work_size)
 from .jit import INLINE, JIT
 from .walls import outer_radius, ring_surface
 
@@ -36,6 +36,16 @@ RECHECK = 100
 # Relative padding of select_pairs' distance test, far above the rounding of the law's own
 # overlap and approach speed: a pair it leaves out is certainly one the law gives zero.
 PAD = 1e-12
+
+
+@nb.njit(**JIT)
+def new_work(o):
+    """contact_forces' work array for a run of calls: the law's rows, then its choice, which
+    starts with every pair computed and counted."""
+    work = np.zeros(work_size(o))
+    work[work.size - 1] = 1.0
+    work[work.size - 2] = RECHECK
+    return work
 
 
 @nb.njit(**JIT)

@@ -37,8 +37,8 @@ from typing import Callable, NamedTuple
 import numba as nb
 import numpy as np
 
-from .contact.model import ContactOptions, work_size
-from .forces import RECHECK, contact_forces
+from .contact.model import ContactOptions
+from .forces import contact_forces, new_work
 from .integrate import drift, kick, wall_travel
 from .jit import JIT
 from .static import static
@@ -82,9 +82,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
         n_owned = clock.n_owned[0]
         n_all = clock.n_local[0] + clock.n_ghost[0]
         scratch = np.empty((2, n_owned))
-        work = np.zeros(work_size(o))
-        work[work.size - 1] = 1.0  # the first call computes every pair and counts
-        work[work.size - 2] = RECHECK
+        work = new_work(o)
         forces_only = clock.phase[0] == FORCES_ONLY
         if forces_only:  # synchronous velocities
             for k in range(n_all):
