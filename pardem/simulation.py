@@ -118,13 +118,14 @@ class Simulation(StateViews):
         # the in-situ averager ([averaging] table; None without), kept across run() calls
         self.rings = make_averager(scene, self._free_radii, self.decomp)
         history, recorded = None, None
+        notes: list[str] = []  # the restore's, logged once the folder is claimed
         if restart is None:  # this rank's rows only, built or read
             self.ps, n_owned, n = rank_share(init, self.decomp, self.hist)
         else:
             got = restore(restart, init, scene, self.dt, self.history_columns, self.decomp,
-                          self.log)
+                          notes.append)
             self.ps, n_owned, n, self.clock.step[0], history, recorded, averages = got
-            resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
+            resume(self.rings, scene, self.dt, self.step, averages, restart, notes.append)
         self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
         self._claimed = None  # run files present when the folder was claimed (first run only)
         if self.out_dir is not None:  # claimed under the folder's lock, released after
@@ -136,6 +137,8 @@ class Simulation(StateViews):
                 self.folder_lock.release()
             if removed:
                 self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
+        for note in notes:
+            self.log(note)
         wall_radius = float(init.radius[init.n_free:].max(initial=0.0))
         del init  # the whole cell's arrays: not kept
         self.clock.n_owned[0], self.clock.n_local[0] = n_owned, n

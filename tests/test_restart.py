@@ -166,3 +166,17 @@ def test_an_output_time_off_the_step_is_said(tmp_path, capsys):
     note = ("[output] snapshot_interval = 0.0123 s not a whole number of steps of 4.34783e-05 "
             "s: rounded to the nearest step")
     assert note in capsys.readouterr().err and note in (tmp_path / "log.txt").read_text()
+
+
+def test_a_restart_that_notes_a_missing_eta_runs_in_a_new_folder(tmp_path):
+    """The restore's notes go to the new folder's log.txt once the folder is claimed: written
+    before, they made the folder look like another run's, and the restart was refused."""
+    sim = Simulation(small_cell())  # no output, no averaging: no eta kept
+    sim.run(end=0.15, progress=False)
+    sim.write_checkpoint(tmp_path / "c.h5")
+    again = Simulation(averaged_cell(start=0.2), out_dir=tmp_path / "new",
+                       restart=tmp_path / "c.h5")
+    again.run(end=0.2, progress=False)
+    lines = (tmp_path / "new" / "log.txt").read_text().splitlines()
+    assert "the checkpoint has no eta" in lines[0]
+    assert (tmp_path / "new" / "checkpoint.h5").exists()
