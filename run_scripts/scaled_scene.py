@@ -18,6 +18,13 @@ overlapping disks to be relaxed, which the compression does.
 
 The shipped couette_B_30k, _300k and _1M are K = 3.2, 10 and 18.5 (30,096, 293,900 and
 1,005,872 free disks).
+
+    python run_scripts/scaled_scene.py K OUT.toml --ring-only
+
+writes B itself with Omega x K instead: its inner wall as fast as the K-scaled cell's, over
+B's protocol with its times divided by K (the same turns of the ring). It tells what a scaled
+cell's step costs because it is larger from what it costs because its wall is faster (more
+neighbour builds, contacts sliding and closing). The shipped couette_B_ring_x10 is K = 10.
 """
 
 from __future__ import annotations
@@ -82,6 +89,27 @@ def scaled(k: float, end: float = 30.0) -> str:
     return header + text
 
 
+def fast_ring(k: float) -> str:
+    """B with its inner ring k times as fast, and the times of its protocol after the
+    compression (averaging window, run end, snapshots) divided by k: the same turns."""
+    text = B.read_text()
+    d = tomllib.loads(text)
+    after = {key: d[table][key] for table, key in (("time", "end"), ("averaging", "start"),
+                                                   ("averaging", "end"),
+                                                   ("output", "snapshot_interval"))}
+    for key, value in (("omega_inner", d["geometry"]["omega_inner"] * k), *(
+            (key, round(v / k, 6)) for key, v in after.items())):
+        pattern = rf"^({key}\s*=\s*)([0-9.e+-]+)"
+        assert re.search(pattern, text, flags=re.M), key
+        text = re.sub(pattern, lambda m: m.group(1) + f"{value:g}".ljust(len(m.group(2))),
+                      text, flags=re.M)
+    text = re.sub(r'^name = "couette-B"', f'name = "couette-B-ring-x{k:g}"', text, flags=re.M)
+    return (f"# pardem scene: the paper's B with its inner ring {k:g} times as fast "
+            "(run_scripts/scaled_scene.py\n"
+            f"# --ring-only): the wall speed of B scaled by k = {k:g}; protocol times / {k:g}.\n"
+            + text)
+
+
 def tightest_start(r_inner_clear: float, n: int, d_max: float, wall: float) -> float:
     """The smallest outer ring radius (m; x 1.001, rounded up to 0.1 mm) at which the
     triangular lattice of pardem.placement (spacing 1.001 d_max, centres 1.01 d_max/2 clear of
@@ -121,11 +149,13 @@ def main() -> None:
     ap.add_argument("k", type=float)
     ap.add_argument("out", type=Path)
     ap.add_argument("--end", type=float, default=30.0, help="s")
+    ap.add_argument("--ring-only", action="store_true",
+                    help="B with Omega x k (the k-scaled cell's wall speed), not B scaled")
     args = ap.parse_args()
     if not args.k >= 1.0:
         raise SystemExit(f"scaled_scene.py: k = {args.k}: must be >= 1")
-    args.out.write_text(scaled(args.k, args.end))
-    print(f"{args.out}: B x {args.k:g}")
+    args.out.write_text(fast_ring(args.k) if args.ring_only else scaled(args.k, args.end))
+    print(f"{args.out}: B {'with Omega' if args.ring_only else ''} x {args.k:g}")
 
 
 if __name__ == "__main__":

@@ -1,6 +1,7 @@
 """The shipped scaled cells (run_scripts/couette_B_30k/_300k/_1M.toml) are B scaled by k at
 fixed particle size: the free disks' area fraction and the wall disks' spacing are B's,
-computed here from the files' own numbers, and each file is what scaled_scene.py writes."""
+computed here from the files' own numbers, and each file is what scaled_scene.py writes; B with
+a 10 times faster ring (couette_B_ring_x10.toml) has the 300k cell's wall speed."""
 
 import math
 import sys
@@ -11,7 +12,7 @@ import pytest
 
 RUN_SCRIPTS = Path(__file__).parents[1] / "run_scripts"
 sys.path.insert(0, str(RUN_SCRIPTS))
-from scaled_scene import scaled  # noqa: E402
+from scaled_scene import fast_ring, scaled  # noqa: E402
 
 
 def numbers(path: Path):
@@ -51,3 +52,19 @@ def test_scaled_cells_start_as_tight_as_the_placement_allows():
         g.outer_start_radius - g.inner_radius))
     with pytest.raises(SceneError, match="cannot place"):
         initial_configuration(dataclasses.replace(scene, geometry=closer))
+
+
+def test_b_with_a_fast_ring_moves_its_wall_as_fast_as_the_300k_cell():
+    """B as it is but for Omega and the protocol's times, which turn the ring as far."""
+    fast = tomllib.loads((RUN_SCRIPTS / "couette_B_ring_x10.toml").read_text())
+    b = tomllib.loads((RUN_SCRIPTS / "couette_B.toml").read_text())
+    big = tomllib.loads((RUN_SCRIPTS / "couette_B_300k.toml").read_text())
+    assert (RUN_SCRIPTS / "couette_B_ring_x10.toml").read_text() == fast_ring(10)
+    speed = [d["geometry"]["omega_inner"] * d["geometry"]["inner_radius"] for d in (fast, big)]
+    assert speed[0] == pytest.approx(speed[1], rel=1e-12) and speed[0] > 0
+    turns = [d["geometry"]["omega_inner"] * d["time"]["end"] for d in (fast, b)]
+    assert turns[0] == pytest.approx(turns[1], rel=1e-12)
+    for table in ("species", "contact", "effects"):
+        assert fast[table] == b[table]
+    assert {k: v for k, v in fast["geometry"].items() if k != "omega_inner"} == {
+        k: v for k, v in b["geometry"].items() if k != "omega_inner"}
