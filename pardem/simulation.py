@@ -31,7 +31,7 @@ from .output.progress import (breakdown, end_progress, log_line, progress_line, 
 from .output.restart import gather_state, restore
 from .output.snapshots import write_snapshot
 from .output.checkpoint import save_checkpoint
-from .output.folder import FolderLock, claim_folder, lock_unchanged, run_files
+from .output.folder import FolderLock, claim, lock_unchanged
 from .output.averages import make_averager, resume, sample_grid
 from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
@@ -127,16 +127,9 @@ class Simulation(StateViews):
             self.ps, n_owned, n, self.clock.step[0], history, recorded, averages = got
             resume(self.rings, scene, self.dt, self.step, averages, restart, notes.append)
         self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
-        self._claimed = None  # run files present when the folder was claimed (first run only)
-        if self.out_dir is not None:  # claimed under the folder's lock, released after
-            try:
-                removed = self.decomp.bcast_call(claim_folder, self.out_dir, scene, restart,
-                                                 overwrite, self.folder_lock)
-                self._claimed = self.decomp.bcast_call(run_files, self.out_dir)
-            finally:
-                self.folder_lock.release()
-            if removed:
-                self.log(f"--overwrite: removed the previous run's {', '.join(removed)}")
+        # run files present when the folder was claimed (checked at the first run only)
+        self._claimed = (claim(self.out_dir, self.decomp, scene, restart, overwrite,
+                               self.folder_lock, self.log) if self.out_dir is not None else None)
         for note in notes:
             self.log(note)
         wall_radius = float(init.radius[init.n_free:].max(initial=0.0))

@@ -78,6 +78,20 @@ def lock_unchanged(out_dir: Path, lock: FolderLock, claimed: set[str]) -> None:
                          "folder after this one claimed it; choose another folder")
 
 
+def claim(out_dir: Path, decomp, scene, restart, overwrite: bool, lock: FolderLock,
+          log) -> set[str]:
+    """claim_folder on rank 0 for every rank, under ``lock`` (released on return); logs what
+    --overwrite removed. Returns the run files then present."""
+    try:
+        removed = decomp.bcast_call(claim_folder, out_dir, scene, restart, overwrite, lock)
+        claimed = decomp.bcast_call(run_files, out_dir)
+    finally:
+        lock.release()
+    if removed:
+        log(f"--overwrite: removed the previous run's {', '.join(removed)}")
+    return claimed
+
+
 def claim_folder(out_dir: Path, scene, restart, overwrite: bool, lock: FolderLock) -> list[str]:
     """Make ``out_dir`` ready for a run of ``scene`` (continuing from ``restart``, a
     checkpoint path or None), under ``lock`` (held on return). Returns the files removed
