@@ -91,23 +91,31 @@ def scaled(k: float, end: float = 30.0) -> str:
 
 def fast_ring(k: float) -> str:
     """B with its inner ring k times as fast, and the times of its protocol after the
-    compression (averaging window, run end, snapshots) divided by k: the same turns."""
+    compression (run end, averaging window, snapshots) divided by k: the same turns."""
     text = B.read_text()
     d = tomllib.loads(text)
-    after = {key: d[table][key] for table, key in (("time", "end"), ("averaging", "start"),
-                                                   ("averaging", "end"),
-                                                   ("output", "snapshot_interval"))}
-    for key, value in (("omega_inner", d["geometry"]["omega_inner"] * k), *(
-            (key, round(v / k, 6)) for key, v in after.items())):
-        pattern = rf"^({key}\s*=\s*)([0-9.e+-]+)"
-        assert re.search(pattern, text, flags=re.M), key
-        text = re.sub(pattern, lambda m: m.group(1) + f"{value:g}".ljust(len(m.group(2))),
-                      text, flags=re.M)
+    text = set_value(text, "geometry", "omega_inner", d["geometry"]["omega_inner"] * k)
+    for table, key in (("time", "end"), ("averaging", "start"), ("averaging", "end"),
+                       ("output", "snapshot_interval")):
+        text = set_value(text, table, key, round(d[table][key] / k, 6))
     text = re.sub(r'^name = "couette-B"', f'name = "couette-B-ring-x{k:g}"', text, flags=re.M)
     return (f"# pardem scene: the paper's B with its inner ring {k:g} times as fast "
             "(run_scripts/scaled_scene.py\n"
             f"# --ring-only): the wall speed of B scaled by k = {k:g}; protocol times / {k:g}.\n"
             + text)
+
+
+def set_value(text: str, table: str, key: str, value: float) -> str:
+    """``text`` with [table] key's number replaced by value, its comment kept in place."""
+    lines, current, done = text.splitlines(keepends=True), None, False
+    for n, line in enumerate(lines):
+        if head := re.match(r"^\[+([a-z_]+)\]+", line):
+            current = head.group(1)
+        elif current == table and (m := re.match(rf"^({key}\s*=\s*)([0-9.e+-]+)", line)):
+            lines[n] = m.group(1) + f"{value:g}".ljust(len(m.group(2))) + line[m.end():]
+            done = True
+    assert done, (table, key)
+    return "".join(lines)
 
 
 def tightest_start(r_inner_clear: float, n: int, d_max: float, wall: float) -> float:
@@ -148,14 +156,21 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("k", type=float)
     ap.add_argument("out", type=Path)
-    ap.add_argument("--end", type=float, default=30.0, help="s")
+    ap.add_argument("--end", type=float, default=None, help="s (default 30)")
     ap.add_argument("--ring-only", action="store_true",
                     help="B with Omega x k (the k-scaled cell's wall speed), not B scaled")
     args = ap.parse_args()
     if not args.k >= 1.0:
         raise SystemExit(f"scaled_scene.py: k = {args.k}: must be >= 1")
-    args.out.write_text(fast_ring(args.k) if args.ring_only else scaled(args.k, args.end))
-    print(f"{args.out}: B {'with Omega' if args.ring_only else ''} x {args.k:g}")
+    if args.ring_only and args.end is not None:
+        raise SystemExit("scaled_scene.py: --ring-only takes B's protocol times / k; "
+                         "--end applies only to a scaled cell")
+    if args.ring_only:
+        args.out.write_text(fast_ring(args.k))
+        print(f"{args.out}: B with Omega x {args.k:g}")
+    else:
+        args.out.write_text(scaled(args.k, 30.0 if args.end is None else args.end))
+        print(f"{args.out}: B x {args.k:g}")
 
 
 if __name__ == "__main__":
