@@ -85,6 +85,7 @@ class Simulation(StateViews):
                  cut: str = "auto"):
         self.scene = scene
         self.out_dir = Path(out_dir) if out_dir is not None else None
+        self._early: list[str] | None = []  # log lines before the folder is claimed (log)
         self.step_length = resolve_step(scene)  # exact (s): the clock is step x this
         self.dt = float(self.step_length)
         e, g = scene.effects, scene.geometry
@@ -102,10 +103,10 @@ class Simulation(StateViews):
         c = scene.contact
         inner, outer = (g is not None and wall_layout(g, ring).count > 0
                         for ring in ("inner", "outer"))
+        walled = float(inner or outer)
         self.prm = Params(law_params(c, self.dt), rings_of(g), self.dt, skin,
-                          c.mu_bottom * c.gravity, math.inf,
-                          wall_skin=WALL_SKINS * skin if inner or outer else 0.0,
-                          inner_disks=float(inner), wall_disks=float(inner or outer))
+                          c.mu_bottom * c.gravity, math.inf, wall_skin=WALL_SKINS * skin * walled,
+                          inner_disks=float(inner), wall_disks=walled)
         prepare_memory(scene, comm)
         init = initial_configuration(scene)
         self.n_free = init.n_free
@@ -118,20 +119,20 @@ class Simulation(StateViews):
         # the in-situ averager ([averaging] table; None without), kept across run() calls
         self.rings = make_averager(scene, self._free_radii, self.decomp)
         history, recorded = None, None
-        notes: list[str] = []  # the restore's, logged once the folder is claimed
         if restart is None:  # this rank's rows only, built or read
             self.ps, n_owned, n = rank_share(init, self.decomp, self.hist)
         else:
             got = restore(restart, init, scene, self.dt, self.history_columns, self.decomp,
-                          notes.append)
+                          self.log)
             self.ps, n_owned, n, self.clock.step[0], history, recorded, averages = got
-            resume(self.rings, scene, self.dt, self.step, averages, restart, notes.append)
+            resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
         self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
         # run files present when the folder was claimed (checked at the first run only)
         self._claimed = (claim(self.out_dir, self.decomp, scene, restart, overwrite,
                                self.folder_lock, self.log) if self.out_dir is not None else None)
-        for note in notes:
-            self.log(note)
+        early, self._early = self._early, None
+        for line in early:
+            self.log(line)
         wall_radius = float(init.radius[init.n_free:].max(initial=0.0))
         del init  # the whole cell's arrays: not kept
         self.clock.n_owned[0], self.clock.n_local[0] = n_owned, n
@@ -163,8 +164,11 @@ class Simulation(StateViews):
         return int(self.clock.step[0])
 
     def log(self, text: str) -> None:
-        """Append a time-stamped line to DIR/log.txt (rank 0)."""
-        if self.decomp.rank == 0:
+        """Append a time-stamped line to DIR/log.txt (rank 0); kept until the folder is
+        claimed, which a log.txt already written would make look like another run's."""
+        if self._early is not None:
+            self._early.append(text)
+        elif self.decomp.rank == 0:
             log_line(self.out_dir, text)
 
     def breakdown(self) -> str:
