@@ -14,6 +14,8 @@ number of ranks, and a pair seen by two ranks gets the same bits on both.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numba as nb
 import numpy as np
 
@@ -38,14 +40,30 @@ RECHECK = 100
 PAD = 1e-12
 
 
+class ForceWork(NamedTuple):
+    """What contact_forces keeps from call to call within one pair list.
+
+    rows: the law's work rows (model.work_size), whose last two elements keep the loop's
+    choice: the fraction of pairs with a force and the calls since it was counted.
+    live [2, cap] int32, n_live [2] int64: the pairs selected_pairs gave to the law at its
+    last call (row n_live[0], n_live[1] of them, in list order), or n_live[0] = -1 when
+    unknown. Every other pair's history is +0.0, so the next selecting call zeroes only those
+    of these it leaves out, instead of writing every listed pair's history (at 300k disks on
+    one rank, ~25 MB per step that the caches cannot hold)."""
+
+    rows: np.ndarray
+    live: np.ndarray
+    n_live: np.ndarray
+
+
 @nb.njit(**JIT)
-def new_work(o):
-    """contact_forces' work array for a run of calls: the law's rows, then its choice, which
-    starts with every pair computed and counted."""
-    work = np.zeros(work_size(o))
-    work[work.size - 1] = 1.0
-    work[work.size - 2] = RECHECK
-    return work
+def new_work(o, capacity):
+    """contact_forces' work for a run of calls on a list of up to ``capacity`` pairs; its
+    choice starts with every pair computed and counted."""
+    rows = np.zeros(work_size(o))
+    rows[rows.size - 1] = 1.0
+    rows[rows.size - 2] = RECHECK
+    return ForceWork(rows, np.empty((2, capacity), np.int32), np.array([-1, 0]))
 
 
 @nb.njit(**JIT)
@@ -67,15 +85,19 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
         sf[k] = 0.0
     for k in range(n_loc):
         st[k] = 0.0
-    calls = work[work.size - 2]
-    if work[work.size - 1] < SELECT_BELOW:
-        work[work.size - 1] = selected_pairs(ps, pairs, prm, reach, o, rotation, work, record)
-    elif calls >= RECHECK:
-        work[work.size - 1] = every_pair(ps, pairs, prm, reach, o, rotation, work, record, True)
-        work[work.size - 2] = 0.0
+    rows = work.rows
+    calls = rows[rows.size - 2]
+    if rows[rows.size - 1] < SELECT_BELOW:
+        rows[rows.size - 1] = selected_pairs(ps, pairs, prm, reach, o, rotation, work, record)
     else:
-        every_pair(ps, pairs, prm, reach, o, rotation, work, record, False)
-        work[work.size - 2] = calls + 1.0
+        work.n_live[0] = -1  # every pair's history written: the next selection zeroes all
+        if calls >= RECHECK:
+            rows[rows.size - 1] = every_pair(ps, pairs, prm, reach, o, rotation, rows, record,
+                                             True)
+            rows[rows.size - 2] = 0.0
+        else:
+            every_pair(ps, pairs, prm, reach, o, rotation, rows, record, False)
+            rows[rows.size - 2] = calls + 1.0
     if walls:
         ring_contacts(ps, pairs, prm, t, reach, o, rotation, record)
 
@@ -172,14 +194,17 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure):
 
 
 @nb.njit(**JIT)
-def selected_pairs(ps, pairs, prm, reach, o, rotation, work, record):
+def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
     """every_pair's loops on the listed pairs close enough to have a force (select_pairs): in
     steady shear about a quarter of them (B at 239 s: 1,916 of 7,195). Pairs are queued in
     list order until a batch is full; the stored histories (and recorded forces) of the pairs
     up to a batch's last are set to zero in one contiguous pass after its gather, and those
     left out keep the zeros. The law gives a pair left out exactly zero (forces, springs, eta),
     and a sum that starts at +0.0 keeps its bits when a zero is not added, so the results
-    equal every_pair's. Returns the fraction of the listed pairs with a normal force."""
+    equal every_pair's. When the previous call's selection is known (``work.live``) and no
+    forces are recorded, only the pairs of that selection left out now are zeroed: the others
+    already hold +0.0, so memory ends the same. Returns the fraction of the listed pairs with
+    a normal force."""
     n_hist = history_width(o)
     hw = np.uint64(n_hist)
     gx, gv, gw, ga = ps.x.reshape(-1), ps.v_pred.reshape(-1), ps.w_pred, ps.radius
@@ -197,14 +222,27 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, work, record):
     q = 0  # pairs queued
     scanned = 0  # pairs [0, scanned) selected
     zeroed = 0  # pairs [0, zeroed) have had their stored history (and record) set to zero
+    work, was = wk.rows, wk.n_live[0]
+    sparse = was >= 0 and not record
+    old = wk.live[max(was, 0)]  # the previous selection, zeroed where left out now
+    new = wk.live[1 if was == 0 else 0]
+    n_old, p_old, n_new = wk.n_live[1] if sparse else 0, 0, 0
     while scanned < n_pairs or q > 0:
         if scanned < n_pairs:
             mm = min(BATCH, n_pairs - scanned)
             q = select_pairs(gx, gv, ga, pi, pj, scanned, mm, h, keep, queue, q)
+            while p_old < n_old and old[p_old] < scanned + mm:
+                if keep[old[p_old] - scanned] == 0:
+                    for c in range(n_hist):
+                        sxi[np.uint64(old[p_old]) * hw + np.uint64(c)] = 0.0
+                p_old += 1
             scanned += mm
             if q < BATCH and scanned < n_pairs:
                 continue
         m = min(q, BATCH)
+        for ln in range(m):
+            new[n_new + ln] = queue[ln]
+        n_new += m
         for ln in range(m):
             kk = np.uint64(queue[ln])
             ii = np.uint64(pi[kk])
@@ -220,8 +258,9 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, work, record):
             for c in range(n_hist):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
         upto = queue[m - 1] + 1 if m > 0 else n_pairs
-        zero_pairs(sxi, rfn, rft, zeroed, upto, n_hist, record)
-        zeroed = upto
+        if not sparse:
+            zero_pairs(sxi, rfn, rft, zeroed, upto, n_hist, record)
+            zeroed = upto
         if m == 0:
             break
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
@@ -264,7 +303,10 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, work, record):
         for ln in range(m, q):
             queue[ln - m] = queue[ln]
         q -= m
-    zero_pairs(sxi, rfn, rft, zeroed, n_pairs, n_hist, record)
+    if not sparse:
+        zero_pairs(sxi, rfn, rft, zeroed, n_pairs, n_hist, record)
+    wk.n_live[0] = 1 if was == 0 else 0
+    wk.n_live[1] = n_new
     return n_force / n_pairs if n_pairs else 0.0
 
 

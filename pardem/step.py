@@ -82,7 +82,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
         n_owned = clock.n_owned[0]
         n_all = clock.n_local[0] + clock.n_ghost[0]
         scratch = np.empty((2, n_owned))
-        work = new_work(o)
+        work = new_work(o, pairs.count[0])
         forces_only = clock.phase[0] == FORCES_ONLY
         if forces_only:  # synchronous velocities
             for k in range(n_all):

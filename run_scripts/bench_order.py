@@ -54,14 +54,13 @@ def morton_relabel(sim) -> None:
 
 
 def stage_times(sim) -> dict[str, float]:
-    from pardem.contact.model import work_size
-    from pardem.forces import contact_forces
+    from pardem.forces import contact_forces, new_work
     from pardem.integrate import drift, kick
 
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
     n = int(sim.clock.n_owned[0])
     n_all = int(sim.clock.n_local[0])
-    work = np.zeros(work_size(opts.contact))
+    work = new_work(opts.contact, int(pairs.count[0]))
     scratch = np.empty((2, n))
     out = {}
     t = time.perf_counter()

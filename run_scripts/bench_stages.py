@@ -27,8 +27,7 @@ import numba as nb  # noqa: E402
 import numpy as np  # noqa: E402
 from bench_order import parse_states  # noqa: E402
 
-from pardem.contact.model import work_size  # noqa: E402
-from pardem.forces import contact_forces  # noqa: E402
+from pardem.forces import contact_forces, new_work  # noqa: E402
 from pardem.integrate import drift, kick  # noqa: E402
 from pardem.jit import JIT  # noqa: E402
 
@@ -58,7 +57,7 @@ def round_times(sim, reps: int) -> dict[str, float]:
     """Seconds per particle of each stage alone and of a step, for one round."""
     ps, pairs, prm, opts, clock = sim.ps, sim.pairs, sim.prm, sim.options, sim.clock
     n, n_all = int(clock.n_owned[0]), int(clock.n_local[0])
-    work, scratch = np.zeros(work_size(opts.contact)), np.empty((2, n))
+    work, scratch = new_work(opts.contact, int(pairs.count[0])), np.empty((2, n))
     out = {}
     t = time.perf_counter()
     forces_loop(ps, pairs, n_all, prm, sim.time, opts.contact, opts.rotation, opts.walls, work,

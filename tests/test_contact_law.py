@@ -6,9 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from pardem.contact.model import (BATCH, ContactOptions, LawParams, contact_law, pair_force,
-                                  work_size)
-from pardem.forces import RECHECK, contact_forces
+from pardem.contact.model import BATCH, ContactOptions, LawParams, contact_law, pair_force
+from pardem.forces import RECHECK, contact_forces, new_work
 
 LAW = LawParams(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, gamma_t=0.05, k_r=100.0,
                 mu_r=0.1)
@@ -220,8 +219,8 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     # it counting the pairs with a force (as it does every RECHECK calls)
     for fraction, calls in ((None, 0), (0.0, 0), (1.0, 0), (1.0, RECHECK)):
         if fraction is not None:
-            work = np.zeros(work_size(sim.contact))
-            work[-1], work[-2] = fraction, calls
+            work = new_work(sim.contact, count)
+            work.rows[-1], work.rows[-2] = fraction, calls
             pr.hist[:count] = xi0[:count]
             pr.fn[:] = np.nan
             contact_forces(ps, pr, int(sim.clock.n_local[0]), sim.prm, sim.time,
@@ -229,7 +228,7 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
                            sim.options.walls, work, True)
             # both loops that count find the share of listed pairs with a normal force
             counted = fraction == 0.0 or calls == RECHECK
-            assert work[-1] == (np.count_nonzero(rec[:, 0]) / count if counted else fraction)
+            assert work.rows[-1] == (np.count_nonzero(rec[:, 0]) / count if counted else fraction)
         np.testing.assert_array_equal(ps.f, f)
         np.testing.assert_array_equal(ps.tau, tau)
         np.testing.assert_array_equal(pr.fn[:count], rec[:, 0])
@@ -271,3 +270,48 @@ def test_deferred_law_is_exact_without_a_redo(jitted):
         np.testing.assert_array_equal(*bits)
         flagged["window" if window else "sliding" if full[11] else "plain"] += full[0]
     assert min(flagged.values()) > 100, flagged
+
+
+def test_a_selection_zeroes_what_the_previous_one_left_as_a_call_that_zeroes_every_pair():
+    """Between calls on one list, the selecting loop zeroes the stored history only of pairs
+    it gave the law at its previous call and leaves out now, since every other pair already
+    holds +0.0. While contacts open and close, forces, torques and histories must keep the
+    bits of calls that zero every listed pair (the path without a previous selection, which
+    test_compiled_force_loop_equals_sum_of_kernel_calls ties to the kernel)."""
+    from helpers import dense_packing, free_scene
+
+    from pardem.simulation import Simulation
+
+    eff = {"normal_damping": True, "rotation": True, "tangential_friction": True}
+    sim = Simulation(free_scene(dense_packing(10, 10, speed=0.05), effects=eff,
+                                contact={"mu": 0.3}))
+    sim.advance_steps(200)
+    ps, sparse = sim.ps, sim.pairs
+    count = int(sparse.count[0])
+    full = sparse._replace(hist=sparse.hist.copy())
+    works = {id(p): new_work(sim.contact, count) for p in (sparse, full)}
+    rng = np.random.default_rng(5)
+    args = (int(sim.clock.n_local[0]), sim.prm, sim.time, 0.0, sim.contact,
+            sim.options.rotation, sim.options.walls)
+    n = int(sim.clock.n_owned[0])
+    left, opened = 0, 0
+    for call in range(40):
+        ps.x[:n] += rng.normal(0.0, 2e-3 * ps.radius[:n, None], (n, 2))
+        before = sparse.hist[:count].copy()
+        got = {}
+        for p in (sparse, full):
+            w = works[id(p)]
+            w.rows[-1] = 0.0  # select, whatever the last call measured
+            if p is full:
+                w.n_live[0] = -1
+            elif call:
+                assert w.n_live[0] >= 0  # the previous selection is known
+            contact_forces(ps, p, *args, w, False)
+            got[id(p)] = (ps.f.copy(), ps.tau.copy(), p.hist[:count].copy())
+        for a, b in zip(got[id(sparse)], got[id(full)]):
+            np.testing.assert_array_equal(a.view(np.int64), b.view(np.int64))
+        was_on = before.any(axis=1)
+        now_on = sparse.hist[:count].any(axis=1)
+        left += int((was_on & ~now_on).sum())
+        opened += int((~was_on & now_on).sum())
+    assert left > 20 and opened > 20, (left, opened)
