@@ -2,12 +2,13 @@
 on one core, at growing N.
 
     python run_scripts/bench_order.py SCENE.toml CHECKPOINT.h5 [SCENE CHECKPOINT ...]
-                                      [--rounds 7] [--steps 200]
+                                      [--rounds 7] [--steps 200] [--order morton|raster]
 
 Per scene, two Simulations restart from the same checkpoint in one process: one keeps the
 rows in gid order (the placement's raster order, mixed by the shear since), the other has its
-free disks relabelled along a Morton curve of their cell (gid := rank on the curve, then the
-lists rebuilt), so that storage, pair list and summation all follow space. The relabelled run
+free disks relabelled along a curve through their current positions (``--order``: a Morton
+curve of cells one diameter wide, or the placement's raster of lattice rows; gid := rank on
+the curve, then the lists rebuilt), so that storage, pair list and summation all follow space. The relabelled run
 is a different labelling, so its bits differ: this measures what spatial order could gain,
 not a pardem option. Rounds alternate the two: the force evaluation of the current state
 (``forces.contact_forces``, one call), the opening kick and the drift, in ns per particle
@@ -37,13 +38,20 @@ def spread_bits(v: np.ndarray) -> np.ndarray:
     return v
 
 
-def morton_relabel(sim) -> None:
-    """Sort the owned rows along a Morton curve of cells one diameter wide; gid := position."""
+def relabel(sim, curve: str) -> None:
+    """Sort the owned rows along a curve through their current positions; gid := position.
+    "morton": a Morton curve of cells one diameter wide. "raster": rows one lattice row
+    (sqrt(3)/2 diameters) high, each by x: the order the placement gave the lattice, so this
+    undoes what the shear has mixed since."""
     ps, n = sim.ps, int(sim.clock.n_owned[0])
     x = ps.x[:n]
     cell = 2.0 * float(ps.radius[:n].max())
-    ij = np.floor((x - x.min(axis=0)) / cell).astype(np.int64)
-    order = np.argsort(spread_bits(ij[:, 0]) | (spread_bits(ij[:, 1]) << 1), kind="stable")
+    if curve == "morton":
+        ij = np.floor((x - x.min(axis=0)) / cell).astype(np.int64)
+        order = np.argsort(spread_bits(ij[:, 0]) | (spread_bits(ij[:, 1]) << 1), kind="stable")
+    else:
+        row = np.floor((x[:, 1] - x[:, 1].min()) / (0.5 * np.sqrt(3.0) * cell))
+        order = np.lexsort((x[:, 0], row))
     for name in ps._fields:
         a = getattr(ps, name)
         if a.shape[0] >= n:
@@ -78,14 +86,17 @@ def stage_times(sim) -> dict[str, float]:
     return out
 
 
-def parse_states(doc: str, rounds: int, option: str, default: int):
+def parse_states(doc: str, rounds: int, option: str, default: int, orders: bool = False):
     """The command line of a benchmark over restored states (also bench_stages.py): SCENE
-    CHECKPOINT pairs, ``--rounds`` and one more integer option. Returns ``(args, [(scene,
-    checkpoint), ...])``."""
+    CHECKPOINT pairs, ``--rounds``, one more integer option and, with ``orders``, ``--order``.
+    Returns ``(args, [(scene, checkpoint), ...])``."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("pairs", nargs="+", help="SCENE.toml CHECKPOINT.h5, repeated")
     ap.add_argument("--rounds", type=int, default=rounds)
     ap.add_argument(option, type=int, default=default)
+    if orders:
+        ap.add_argument("--order", choices=["morton", "raster"], default="morton",
+                        help="the curve the relabelled copy follows")
     args = ap.parse_args()
     if len(args.pairs) % 2:
         ap.error("give a checkpoint after each scene")
@@ -96,13 +107,13 @@ def main() -> None:
     from pardem.scene import load_scene
     from pardem.simulation import Simulation
 
-    args, states = parse_states(__doc__, 7, "--steps", 200)
+    args, states = parse_states(__doc__, 7, "--steps", 200, orders=True)
     for path, ckpt in states:
         scene = load_scene(path)
         sims = {"gid order": Simulation(scene, restart=ckpt),
-                "Morton": Simulation(scene, restart=ckpt)}
-        morton_relabel(sims["Morton"])
-        n = sims["Morton"].n_free
+                args.order: Simulation(scene, restart=ckpt)}
+        relabel(sims[args.order], args.order)
+        n = sims[args.order].n_free
         best: dict = {k: {} for k in sims}
         steps: dict = {k: [] for k in sims}
         for _ in range(args.rounds):
