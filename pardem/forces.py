@@ -49,7 +49,8 @@ class ForceWork(NamedTuple):
     last call (row n_live[0], n_live[1] of them, in list order), or n_live[0] = -1 when
     unknown. Every other pair's history is +0.0, so the next selecting call zeroes only those
     of these it leaves out, instead of writing every listed pair's history (at 300k disks on
-    one rank, ~25 MB per step that the caches cannot hold)."""
+    one rank, ~22 MB per step that the caches cannot hold). A new list needs a new ForceWork:
+    the selection is kept as indices into the list."""
 
     rows: np.ndarray
     live: np.ndarray
@@ -201,7 +202,7 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
     up to a batch's last are set to zero in one contiguous pass after its gather, and those
     left out keep the zeros. The law gives a pair left out exactly zero (forces, springs, eta),
     and a sum that starts at +0.0 keeps its bits when a zero is not added, so the results
-    equal every_pair's. When the previous call's selection is known (``work.live``) and no
+    equal every_pair's. When the previous call's selection is known (``wk.live``) and no
     forces are recorded, only the pairs of that selection left out now are zeroed: the others
     already hold +0.0, so memory ends the same. Returns the fraction of the listed pairs with
     a normal force."""
