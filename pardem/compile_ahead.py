@@ -27,7 +27,7 @@ import numpy as np
 from numba.core import types
 
 from .contact.history import NO_HISTORY
-from .forces import contact_forces, ring_contacts
+from .forces import ForceWork, contact_forces, ring_contacts
 from .rebuild import exchange_counts
 
 
@@ -86,11 +86,12 @@ def _groups(sim, history) -> list[list]:
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
     plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
     after_migration, early, late = _first_step(sim, state, f8)
+    work = nb.typeof(ForceWork(np.zeros(1), np.zeros((2, 1), np.int32), np.zeros(2, np.int64)))
     return [
         _migration(tuple(nb.typeof(a) for a in exchange)) + after_migration,
         early + [(_refresh_plan, plan), (build_lists, lists),
          (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
-                                   nb.typeof(np.zeros(1)), record)),
+                                   work, record)),
          (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record)),
          (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))]
         + late,
