@@ -234,8 +234,7 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
             q = select_pairs(gx, gv, ga, pi, pj, scanned, mm, h, keep, queue, q)
             while p_old < n_old and old[p_old] < scanned + mm:
                 if keep[old[p_old] - scanned] == 0:
-                    for c in range(n_hist):
-                        sxi[np.uint64(old[p_old]) * hw + np.uint64(c)] = 0.0
+                    zero_pairs(sxi, rfn, rft, old[p_old], old[p_old] + 1, n_hist, False)
                 p_old += 1
             scanned += mm
             if q < BATCH and scanned < n_pairs:

@@ -8,12 +8,12 @@ Per scene, two Simulations restart from the same checkpoint in one process: one 
 rows in gid order (the placement's raster order, mixed by the shear since), the other has its
 free disks relabelled along a curve through their current positions (``--order``: a Morton
 curve of cells one diameter wide, or the placement's raster of lattice rows; gid := rank on
-the curve, then the lists rebuilt), so that storage, pair list and summation all follow space. The relabelled run
-is a different labelling, so its bits differ: this measures what spatial order could gain,
-not a pardem option. Rounds alternate the two: the force evaluation of the current state
-(``forces.contact_forces``, one call), the opening kick and the drift, in ns per particle
-(minima over the rounds), then ``--steps`` steps of each run (median; builds included, and
-apart).
+the curve, then the lists rebuilt), so that storage, pair list and summation all follow space.
+The relabelled run is a different labelling, so its bits differ: this measures what spatial
+order could gain, not a pardem option. Rounds alternate the two: the force evaluation of the
+current state (``forces.contact_forces``, one call), the opening kick and the drift, in ns per
+particle (minima over the rounds), then ``--steps`` steps of each run (median; builds included,
+and apart).
 """
 
 from __future__ import annotations
