@@ -86,10 +86,12 @@ def stage_times(sim) -> dict[str, float]:
     return out
 
 
-def parse_states(doc: str, rounds: int, option: str, default: int, orders: bool = False):
-    """The command line of a benchmark over restored states (also bench_stages.py): SCENE
-    CHECKPOINT pairs, ``--rounds``, one more integer option and, with ``orders``, ``--order``.
-    Returns ``(args, [(scene, checkpoint), ...])``."""
+def parse_states(doc: str, rounds: int, option: str, default: int, orders: bool = False,
+                 extra=None):
+    """The command line of a benchmark over restored states (also bench_stages.py,
+    bench_windows.py): SCENE CHECKPOINT pairs, ``--rounds``, one more integer option, with
+    ``orders`` ``--order``, and whatever ``extra(parser)`` adds. Returns ``(args, [(scene,
+    checkpoint), ...])``."""
     ap = argparse.ArgumentParser(description=doc.splitlines()[0])
     ap.add_argument("pairs", nargs="+", help="SCENE.toml CHECKPOINT.h5, repeated")
     ap.add_argument("--rounds", type=int, default=rounds)
@@ -97,6 +99,8 @@ def parse_states(doc: str, rounds: int, option: str, default: int, orders: bool 
     if orders:
         ap.add_argument("--order", choices=["morton", "raster"], default="morton",
                         help="the curve the relabelled copy follows")
+    if extra is not None:
+        extra(ap)
     args = ap.parse_args()
     if len(args.pairs) % 2:
         ap.error("give a checkpoint after each scene")
