@@ -3,15 +3,19 @@
     python run_scripts/bench_windows.py SCENE.toml CHECKPOINT.h5 [SCENE CHECKPOINT ...]
                                         [--rounds 3] [--reps 3000000] [--sweep 1 2 4 8]
 
-Per restored state, the pair loop (``forces.contact_forces`` without the flat ring contacts and
-without zeroing the forces) on the whole list, and on windows of consecutive pairs of the same
-list (copied out with their histories; up to 16 windows spread over the list, averaged) each
-called over and over, so that a window smaller than the caches computes from them. The same
-pairs and the same law: what a window of B's size costs per listed pair is what the whole list
-would cost if its data stayed cached, and the growth with the window's size (7,000 pairs, B's
-list, to 400,000) shows which cache level it falls out of. ``--reps``: pairs computed per
-timing. Prints ns per listed pair, median (range) over the rounds, and the fraction of the
-pairs with a force (the loop's own count).
+Per restored state (stepped twice, so that the predicted velocities and the reach of the
+damping window are the step's), the pair loop on the whole list, and on windows of consecutive
+pairs of the same list (copied out with their histories; up to 16 windows spread over the list,
+averaged, so that together they are about as dense as the list) each called over and over, so
+that a window smaller than the caches computes from them. The same pairs, the same law and the
+same loop: the one ``forces.contact_forces`` chooses for the whole list (every pair, or the
+selection of those that can have a force), without the flat ring contacts and without zeroing
+the forces. What a window of B's size costs per listed pair is what the whole list would cost
+if its data stayed cached, and the growth with the window's size (7,000 pairs, B's list, to
+400,000) shows which cache level it falls out of (at 10^6 disks the copies take ~0.4 GB).
+``--reps``: pairs computed per timing. Prints ns per listed pair, median (range) over the
+rounds, and the fraction of the pairs with a force. The calls change the histories in place
+(springs advance as in a step): a timing, not a simulation.
 
 ``--sweep S ...``: also the whole list swept in windows of 70,000 pairs, each window's loop
 called S times before the next, so that its data comes from memory once per S calls: what
@@ -21,14 +25,36 @@ work not included).
 
 from __future__ import annotations
 
+import os
 import statistics
 import time
 
-import numpy as np
-from bench_order import parse_states
-from bench_stages import forces_loop
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("OMP_NUM_THREADS", "1")
 
-from pardem.forces import new_work
+import numba as nb  # noqa: E402
+import numpy as np  # noqa: E402
+from bench_order import parse_states  # noqa: E402
+
+from pardem.forces import SELECT_BELOW, every_pair, new_work, selected_pairs  # noqa: E402
+from pardem.jit import JIT  # noqa: E402
+
+WINDOWS = (7_000, 70_000, 200_000, 400_000)
+SWEEP_WINDOW = 70_000
+
+
+@nb.njit(**dict(JIT, cache=False))
+def pair_loop(ps, pairs, prm, reach, o, rotation, work, dense, reps):
+    for _ in range(reps):
+        if dense:
+            every_pair(ps, pairs, prm, reach, o, rotation, work.rows, False, False)
+        else:
+            selected_pairs(ps, pairs, prm, reach, o, rotation, work, False)
+
+
+@nb.njit(**dict(JIT, cache=False))
+def force_fraction(ps, pairs, prm, reach, o, rotation, work):
+    return every_pair(ps, pairs, prm, reach, o, rotation, work.rows, False, True)
 
 
 def window(pairs, start: int, stop: int):
@@ -39,39 +65,54 @@ def window(pairs, start: int, stop: int):
                           count=np.array([stop - start], pairs.count.dtype))
 
 
-def per_pair(sim, pairs, reps: int) -> tuple[float, float]:
-    """Seconds per listed pair of one call on ``pairs`` (after three untimed ones, which also
-    let the loop choose between every pair and the selection), and the fraction with a force."""
-    o = sim.options
-    work = new_work(o.contact, int(pairs.count[0]))
-    args = (sim.ps, pairs, 0, sim.prm, sim.time, o.contact, o.rotation, False, work)
-    forces_loop(*args, 3)
-    t = time.perf_counter()
-    forces_loop(*args, reps)
-    return (time.perf_counter() - t) / reps / int(pairs.count[0]), float(work.rows[-1])
+class Loop:
+    """The pair loop of one restored state, with the whole list's choice of loop."""
 
+    def __init__(self, sim):
+        self.sim, o = sim, sim.options
+        self.reach = float(sim.clock.reach[0])
+        self.fixed = (sim.prm, self.reach, o.contact, o.rotation)
+        self.fraction = self.force_fraction(sim.pairs)
+        self.dense = self.fraction >= SELECT_BELOW
 
-SWEEP_WINDOW = 70_000
+    def force_fraction(self, pairs) -> float:
+        work = new_work(self.sim.options.contact, int(pairs.count[0]))
+        return float(force_fraction(self.sim.ps, pairs, *self.fixed, work))
 
+    def prepared(self, pairs):
+        """The arguments of pair_loop for ``pairs``, after three untimed calls."""
+        work = new_work(self.sim.options.contact, int(pairs.count[0]))
+        args = (self.sim.ps, pairs, *self.fixed, work, self.dense)
+        pair_loop(*args, 3)
+        return args
 
-def sweep(sim, calls: int, rounds: int) -> list[float]:
-    """Seconds per pair-call: the list swept window by window, ``calls`` calls per window,
-    8 calls of every pair in all per round."""
-    o, n = sim.options, int(sim.pairs.count[0])
-    edges = list(range(0, n, SWEEP_WINDOW)) + [n]
-    wins = [window(sim.pairs, a, b) for a, b in zip(edges[:-1], edges[1:])]
-    runs = [(sim.ps, p, 0, sim.prm, sim.time, o.contact, o.rotation, False,
-             new_work(o.contact, int(p.count[0]))) for p in wins]
-    for r in runs:
-        forces_loop(*r, 3)
-    out = []
-    for _ in range(rounds):
+    def per_pair(self, pairs, reps: int) -> float:
+        """Seconds per listed pair, ``reps`` calls on ``pairs``."""
+        args = self.prepared(pairs)
         t = time.perf_counter()
-        for _ in range(max(1, 8 // calls)):
-            for r in runs:
-                forces_loop(*r, calls)
-        out.append((time.perf_counter() - t) / (max(1, 8 // calls) * calls) / n)
-    return out
+        pair_loop(*args, reps)
+        return (time.perf_counter() - t) / reps / int(pairs.count[0])
+
+    def sweep(self, calls: int, rounds: int) -> list[float]:
+        """Seconds per pair and call: the list swept window by window, ``calls`` calls per
+        window, max(1, 8 // calls) sweeps per round."""
+        n = int(self.sim.pairs.count[0])
+        edges = list(range(0, n, SWEEP_WINDOW)) + [n]
+        runs = [self.prepared(window(self.sim.pairs, a, b)) for a, b in zip(edges, edges[1:])]
+        sweeps, out = max(1, 8 // calls), []
+        for _ in range(rounds):
+            t = time.perf_counter()
+            for _ in range(sweeps):
+                for r in runs:
+                    pair_loop(*r, calls)
+            out.append((time.perf_counter() - t) / (sweeps * calls) / n)
+        return out
+
+
+def report(label: str, seconds: list[float], fraction: str = "") -> None:
+    ns = [1e9 * s for s in seconds]
+    print(f"  {label:>38}: {statistics.median(ns):6.2f} ns per listed pair "
+          f"({min(ns):.2f}-{max(ns):.2f}){fraction}", flush=True)
 
 
 def main() -> None:
@@ -85,30 +126,32 @@ def main() -> None:
     args, states = parse_states(__doc__, 3, "--reps", 3_000_000, extra=sweeps)
     for scene, ckpt in states:
         sim = Simulation(load_scene(scene), restart=ckpt)
+        sim.advance_steps(2)
         n = int(sim.pairs.count[0])
-        parts = {"whole list": [sim.pairs]}
-        for w in (7_000, 70_000, 200_000, 400_000):
-            if w < n:  # windows spread over the list, so that together they are as dense
-                k = max(1, min(16, n // w))
-                parts[f"{w} pairs"] = [window(sim.pairs, f, f + w)
-                                       for f in np.linspace(0, n - w, k).astype(int)]
-        got: dict = {k: [] for k in parts}
-        for _ in range(args.rounds):
-            for k, ws in parts.items():
-                each = [per_pair(sim, p, max(3, args.reps // int(p.count[0]))) for p in ws]
-                got[k].append((statistics.fmean(s for s, _ in each),
-                               statistics.fmean(f for _, f in each)))
+        if n == 0:
+            print(f"{sim.scene.info.name}: no listed pairs, nothing to time")
+            continue
+        loop = Loop(sim)
         print(f"{sim.scene.info.name}, t = {sim.time:.3g} s, {sim.n_free} free disks, {n} "
-              f"listed pairs:", flush=True)
-        for k, v in got.items():
-            ns = [1e9 * s for s, _ in v]
-            print(f"  {k:>14}: {statistics.median(ns):6.2f} ns per listed pair "
-                  f"({min(ns):.2f}-{max(ns):.2f}), with a force {v[-1][1]:.2f}", flush=True)
-        for calls in args.sweep:
-            ns = [1e9 * s for s in sweep(sim, calls, args.rounds)]
-            print(f"  swept in windows of {SWEEP_WINDOW}, {calls} calls each: "
-                  f"{statistics.median(ns):6.2f} ns per pair ({min(ns):.2f}-{max(ns):.2f})",
-                  flush=True)
+              f"listed pairs, {loop.fraction:.2f} with a force: "
+              f"{'every pair' if loop.dense else 'the selecting loop'}", flush=True)
+        parts = {"whole list": [sim.pairs]}
+        for w in (w for w in WINDOWS if w < n):
+            parts[f"windows of {w} pairs"] = [
+                window(sim.pairs, f, f + w)
+                for f in np.linspace(0, n - w, max(1, min(16, n // w))).astype(int)]
+        got: dict = {k: [] for k in parts}
+        for _ in range(args.rounds):  # the parts alternate within each round
+            for k, ps in parts.items():
+                got[k].append(statistics.fmean(
+                    loop.per_pair(p, max(3, args.reps // int(p.count[0]))) for p in ps))
+        for k, ps in parts.items():
+            fraction = statistics.fmean(loop.force_fraction(p) for p in ps)
+            report(f"{k} ({len(ps)})" if len(ps) > 1 else k, got[k],
+                   f", with a force {fraction:.2f}")
+        for calls in args.sweep if n > SWEEP_WINDOW else ():  # else one window: the list
+            report(f"swept in {SWEEP_WINDOW}-pair windows, x{calls}",
+                   loop.sweep(calls, args.rounds))
 
 
 if __name__ == "__main__":
