@@ -31,13 +31,26 @@ from .walls import outer_radius, ring_surface
 # law. The selecting loop measures the fraction at every call; while every pair is computed,
 # it is counted every RECHECK calls (a vectorised pass over the law's output, ~1 % of the
 # call), so a packing that loosens is noticed. ``work``'s last two elements keep the fraction
-# and the calls since it was counted.
+# and the calls since it was counted. A list whose data no longer stays in the caches (more
+# than LARGE_LIST pairs: the loop's cost per pair doubles between 7e4 and 2e5 pairs on the
+# machine measured) pays for every history row it reads, and the selection wins up to a higher
+# fraction there (the 1M cell: 1.11 times as fast at 0.51, the crossing near 0.65; the 300k
+# cell's near 0.55; docs/scaling.md). Both loops give the same bits.
 SELECT_BELOW = 0.5
+SELECT_BELOW_LARGE = 0.55
+LARGE_LIST = 100_000
 RECHECK = 100
 
 # Relative padding of select_pairs' distance test, far above the rounding of the law's own
 # overlap and approach speed: a pair it leaves out is certainly one the law gives zero.
 PAD = 1e-12
+
+
+@nb.njit(**INLINE)
+def select_below(n_pairs):
+    """The fraction of pairs with a force below which a list of n_pairs goes through the
+    selecting loop."""
+    return SELECT_BELOW_LARGE if n_pairs > LARGE_LIST else SELECT_BELOW
 
 
 class ForceWork(NamedTuple):
@@ -88,7 +101,7 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
         st[k] = 0.0
     rows = work.rows
     calls = rows[rows.size - 2]
-    if rows[rows.size - 1] < SELECT_BELOW:
+    if rows[rows.size - 1] < select_below(pairs.count[0]):
         rows[rows.size - 1] = selected_pairs(ps, pairs, prm, reach, o, rotation, work, record)
     else:
         work.n_live[0] = -1  # every pair's history written: the next selection zeroes all

@@ -36,7 +36,7 @@ import numba as nb  # noqa: E402
 import numpy as np  # noqa: E402
 from bench_order import parse_states  # noqa: E402
 
-from pardem.forces import SELECT_BELOW, every_pair, new_work, selected_pairs  # noqa: E402
+from pardem.forces import every_pair, new_work, select_below, selected_pairs  # noqa: E402
 from pardem.jit import JIT  # noqa: E402
 
 WINDOWS = (7_000, 70_000, 200_000, 400_000)
@@ -73,7 +73,7 @@ class Loop:
         self.reach = float(sim.clock.reach[0])
         self.fixed = (sim.prm, self.reach, o.contact, o.rotation)
         self.fraction = self.force_fraction(sim.pairs)
-        self.dense = self.fraction >= SELECT_BELOW
+        self.dense = self.fraction >= select_below(int(sim.pairs.count[0]))
 
     def force_fraction(self, pairs) -> float:
         work = new_work(self.sim.options.contact, int(pairs.count[0]))
