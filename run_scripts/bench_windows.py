@@ -70,8 +70,7 @@ class Loop:
 
     def __init__(self, sim):
         self.sim, o = sim, sim.options
-        self.reach = float(sim.clock.reach[0])
-        self.fixed = (sim.prm, self.reach, o.contact, o.rotation)
+        self.fixed = (sim.prm, float(sim.clock.reach[0]), o.contact, o.rotation)
         self.fraction = self.force_fraction(sim.pairs)
         self.dense = self.fraction >= select_below(int(sim.pairs.count[0]))
 
