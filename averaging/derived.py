@@ -59,8 +59,36 @@ def eigen(t: np.ndarray):
 
 
 def exponential_fit(r_tilde: np.ndarray, v: np.ndarray, lo: float = 0.25, hi: float = 8.1):
-    """v = v0 exp(-r_tilde/s) by least squares of log v over lo <= r_tilde <= hi (the paper's
-    range); NaN if fewer than 3 positive values."""
+    """The primary fit (docs/roughness.md): v = v0 exp(-r_tilde/s) by ordinary least squares
+    on v itself over lo <= r_tilde <= hi (the paper's range), every ring one point of equal
+    weight. For a given s the best v0 is sum(v e)/sum(e^2), e = exp(-r/s); s by golden-section
+    search of the residual over 0.05 <= s <= 50. NaN if fewer than 3 finite values."""
+    sel = (r_tilde >= lo) & (r_tilde <= hi) & np.isfinite(v)
+    if sel.sum() < 3:
+        return math.nan, math.nan
+    r, v = r_tilde[sel], v[sel]
+
+    def cost(s):
+        e = np.exp(-r / s)
+        v0 = (v @ e) / (e @ e)
+        return float(np.sum((v - v0 * e) ** 2)), float(v0)
+
+    a, b = math.log(0.05), math.log(50.0)
+    g = (math.sqrt(5) - 1) / 2
+    for _ in range(80):
+        c, d = b - g * (b - a), a + g * (b - a)
+        if cost(math.exp(c))[0] < cost(math.exp(d))[0]:
+            b = d
+        else:
+            a = c
+    s = math.exp(0.5 * (a + b))
+    return cost(s)[1], s
+
+
+def log_exponential_fit(r_tilde: np.ndarray, v: np.ndarray, lo: float = 0.25,
+                        hi: float = 8.1):
+    """The secondary fit: a straight line through log v over lo <= r_tilde <= hi, unweighted,
+    rings with v <= 0 left out; NaN if fewer than 3 positive values."""
     sel = (r_tilde >= lo) & (r_tilde <= hi) & (v > 0) & np.isfinite(v)
     if sel.sum() < 3:
         return math.nan, math.nan

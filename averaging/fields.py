@@ -22,7 +22,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
-from .derived import RingView, eigen, exponential_fit
+from .derived import RingView, eigen, exponential_fit, log_exponential_fit
 
 COMPONENTS = ("rr", "rphi", "phir", "phiphi")
 
@@ -49,6 +49,12 @@ SUMS = (
     Sum("curv_r", "m^3", "-Sum w Sum_c (l x Delta) l_r"),
     Sum("curv_phi", "m^3", "-Sum w Sum_c (l x Delta) l_phi"),
     Sum("contacts", "1", "Sum w C^p (C^p / count: the number-weighted contact number)"),
+    Sum("diam", "m", "Sum w d^p (d^p = 2 a)"),
+    Sum("mmom_r", "kg m/s", "Sum w m^p v_r^p"),
+    Sum("mmom_phi", "kg m/s", "Sum w m^p v_phi^p"),
+    Sum("kin_rr", "kg m^2/s^2", "Sum w m^p v_r^p v_r^p"),
+    Sum("kin_rphi", "kg m^2/s^2", "Sum w m^p v_r^p v_phi^p"),
+    Sum("kin_phiphi", "kg m^2/s^2", "Sum w m^p v_phi^p v_phi^p"),
 )
 COLUMNS = tuple(s.name for s in SUMS)
 COL = {name: k for k, name in enumerate(COLUMNS)}
@@ -85,10 +91,34 @@ def _curvature(v: RingView) -> np.ndarray:
                                                              v.fabric_inverse())
 
 
-def _fit(v: RingView, k: int) -> np.ndarray:
+def _kinetic_stress(v: RingView) -> np.ndarray:
+    """(1/V) Sum w m v'(x)v' with v' = v - u, u = mmom/mass the ring's mass-weighted mean
+    velocity (over the samples averaged): second moment minus mean flow, from additive sums."""
+    m = v.sum("mass")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u = np.stack([v.sum("mmom_r"), v.sum("mmom_phi")], axis=1) / m[:, None]
+    moment = np.empty((m.size, 2, 2))
+    moment[:, 0, 0] = v.sum("kin_rr")
+    moment[:, 0, 1] = moment[:, 1, 0] = v.sum("kin_rphi")
+    moment[:, 1, 1] = v.sum("kin_phiphi")
+    flux = moment - m[:, None, None] * u[:, :, None] * u[:, None, :]
+    return np.where(m[:, None, None] > 0, flux, 0.0) / v.vol_ring[:, None, None]
+
+
+def _inertial_number(v: RingView) -> np.ndarray:
+    """I = gamma_dot d sqrt(rho / p): gamma_dot = 2 |D_rphi|, d the ring's mean diameter, rho
+    the disks' material density (mass / vol), p the pressure with the kinetic part."""
+    p = v.field("pressure") + v.field("pressure_kin")
+    d = v.sum("diam") / v.sum("count")
+    rho = v.sum("mass") / v.sum("vol")
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(p > 0, 2.0 * np.abs(v.field("D_rphi")) * d * np.sqrt(rho / p), np.nan)
+
+
+def _fit(v: RingView, k: int, how=exponential_fit) -> np.ndarray:
     if v.r_tilde is None:
         return np.array(math.nan)
-    return np.array(exponential_fit(v.r_tilde, v.field("v_phi_norm"))[k])
+    return np.array(how(v.r_tilde, v.field("v_phi_norm"))[k])
 
 
 FIELDS = (
@@ -106,6 +136,14 @@ FIELDS = (
                     lambda v: v.tensor("fabric") / v.vol_ring[:, None, None]),
     *_tensor_fields("sigma", "N/m^2", "the stress sigma = stress / V",
                     lambda v: v.tensor("stress") / v.vol_ring[:, None, None]),
+    *_tensor_fields("sigma_kin", "N/m^2", "the kinetic (streaming) stress (1/V) Sum w m v'v', "
+                    "v' the velocity relative to the ring's mean flow", _kinetic_stress),
+    Field("pressure", "N/m^2", "contact pressure tr sigma / 2",
+          lambda v: 0.5 * v.field("tr_sigma")),
+    Field("pressure_kin", "N/m^2", "kinetic pressure tr sigma_kin / 2",
+          lambda v: 0.5 * v.field("tr_sigma_kin")),
+    Field("inertial_number", "1", "I = 2 |D_rphi| d sqrt(rho / p), d the mean diameter, rho "
+          "the disks' density, p = pressure + pressure_kin", _inertial_number),
     *_tensor_fields("eps", "1", "the elastic deformation gradient eps = (pi h / V) deform . "
                     "F^-1", lambda v: (math.pi * v.h / v.vol_ring)[:, None, None]
                     * v.tensor("deform") @ v.fabric_inverse()),
@@ -132,10 +170,17 @@ FIELDS = (
           lambda v: v.field("M_zr") / v.field("kappa_zr")),
     Field("v_phi_norm", "1", "v_phi / (Omega R_i)", lambda v: v.field("v_phi") / v.wall_speed),
     Field("shear_torque", "N m", "2 pi h r^2 sigma_phir: the torque passed outwards through "
-          "the ring", lambda v: 2.0 * math.pi * v.h * v.r * v.r * v.field("sigma_phir")),
-    Field("fit_v0", "1", "v0 of v_phi_norm = v0 exp(-r_tilde/s) over 0.25 <= r_tilde <= 8.1",
-          lambda v: _fit(v, 0)),
+          "the ring by the contacts", lambda v: 2.0 * math.pi * v.h * v.r * v.r
+          * v.field("sigma_phir")),
+    Field("shear_torque_total", "N m", "2 pi h r^2 (sigma_phir + sigma_kin_phir): contacts and "
+          "momentum flux", lambda v: 2.0 * math.pi * v.h * v.r * v.r
+          * (v.field("sigma_phir") + v.field("sigma_kin_phir"))),
+    Field("fit_v0", "1", "v0 of v_phi_norm = v0 exp(-r_tilde/s) over 0.25 <= r_tilde <= 8.1, "
+          "least squares on v (the primary fit)", lambda v: _fit(v, 0)),
     Field("fit_s", "1", "s of that fit", lambda v: _fit(v, 1)),
+    Field("fit_v0_log", "1", "v0 of the same law by a straight line through log v_phi_norm",
+          lambda v: _fit(v, 0, log_exponential_fit)),
+    Field("fit_s_log", "1", "s of the log fit", lambda v: _fit(v, 1, log_exponential_fit)),
 )
 REGISTRY = {f.name: f for f in FIELDS}
 FIELD_UNITS = {"r": "m", "r_tilde": "1", "inner_torque": "N m",

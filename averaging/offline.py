@@ -28,7 +28,7 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
                 ring_width: float | None = None, weighting: str | None = None,
                 displacement: str | None = None) -> RingAverager:
     """Average the snapshots of a run folder with t in [start, end] (defaults: the scene's
-    [averaging] table, or the whole run; displacement "eta" unless the table says)."""
+    [averaging] table, or the whole run; displacement "spring" unless the table says)."""
     run_dir = Path(run_dir)
     scene = load_scene(run_dir / "scene.toml")
     g, cfg = scene.geometry, scene.averaging
@@ -41,7 +41,7 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
     if why:
         raise SceneError(f"ring width {ring_width:g} m: {why}")
     weighting = weighting or (cfg.weighting if cfg else "slice")
-    displacement = displacement or (cfg.displacement if cfg else "eta")
+    displacement = displacement or (cfg.displacement if cfg else "spring")
     dt = resolve_dt(scene)
     every, k0, k1 = sample_range(start, end, scene.output.snapshot_interval, dt)
     avg = None

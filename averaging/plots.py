@@ -19,6 +19,7 @@ Stage: averaging output. ``make_figures(runs, out_dir)`` takes runs loaded by
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import matplotlib
@@ -27,6 +28,7 @@ matplotlib.use("Agg")  # files only, no display
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from .derived import exponential_fit, log_exponential_fit  # noqa: E402
 from .report import PAPER  # noqa: E402
 
 COLOURS = {"A": "tab:blue", "B": "tab:orange", "C": "tab:green"}
@@ -91,9 +93,12 @@ def velocity(runs, out):
         v, e = f["v_phi_norm"], f.get("v_phi_norm_err")
         ok = v > 0
         _errorbar(ax, f["r_tilde"][ok], v[ok], None if e is None else e[ok], run, k)
-        v0, s = float(f["fit_v0"]), float(f["fit_s"])
+        v0, s = exponential_fit(f["r_tilde"], v)
         ax.plot(r, v0 * np.exp(-r / s), "-", color=st["color"],
                 label=f"fit {run['label']}: v₀ = {v0:.3f}, s = {s:.3f}")
+        v0, s = log_exponential_fit(f["r_tilde"], v)
+        ax.plot(r, v0 * np.exp(-r / s), "--", lw=0.8, color=st["color"],
+                label=f"log fit {run['label']}: v₀ = {v0:.3f}, s = {s:.3f}")
         if run.get("paper") in PAPER:
             p = PAPER[run["paper"]]
             ax.plot(r, p["v0"] * np.exp(-r / p["s"]), ":", color=st["color"],
@@ -169,10 +174,11 @@ def spin(runs, out):
     ax.plot(f["r_tilde"], f["omega"], "-", color="k", lw=1, label="ω (particles)")
     ax.plot(f["r_tilde"], f["W_rphi"], "o", ms=2.5, color="tab:red", label="W_rφ (continuum)")
     r = np.linspace(*FIT_RANGE, 60)
-    v = run["wall_speed"] * float(f["fit_v0"]) * np.exp(-r / float(f["fit_s"]))
+    v0, s = exponential_fit(f["r_tilde"], f["v_phi_norm"])
+    v = run["wall_speed"] * v0 * np.exp(-r / s)
     radius = run["r_in"] + r * run["d_ref"]
     # W = (dv/dr + v/r)/2 of the fitted profile, dv/dr = -v/(s d~)
-    w_fit = 0.5 * v * (1.0 / radius - 1.0 / (float(f["fit_s"]) * run["d_ref"]))
+    w_fit = 0.5 * v * (1.0 / radius - 1.0 / (s * run["d_ref"]))
     ax.plot(r, w_fit, ":", color="tab:red", label="W_rφ of the v_φ fit")
     ax.set(xlabel="r̃", ylabel="angular velocity (rad/s)", xlim=(0, min(12, _r_max([run]))),
            title=f"simulation {run['label']}")
@@ -215,10 +221,17 @@ def torque_resistance(runs, out):
         return f["r_tilde"][ok], mu[ok]
 
     _markers(ax, runs, xy, ms=2.5)
+    for k, run in enumerate(runs):  # the spring identity M = (k_t/pi h) kappa . F
+        f = run["rings"]
+        kf = f["kappa_zr"] * f["F_rr"] + f["kappa_zphi"] * f["F_phir"]
+        pred = run["k_t"] / (math.pi * run["height"] * run["k_n_2d"]) * np.abs(kf / f["kappa_zr"])
+        ok = np.isfinite(pred) & (pred > 0)
+        ax.plot(f["r_tilde"][ok], pred[ok], "-", lw=0.7, color=_style(run, k)["color"],
+                label=f"{run['label']}: (k_t/πh)|(κ·F)_r|/(k'_n|κ_zr|), the spring identity")
     ax.set(xlabel="r̃", ylabel="torque resistance μ_c / k'_n = |M_zr| / (k'_n |κ_zr|)",
            xlim=(0, _r_max(runs)))
     ax.set_yscale("log")
-    ax.legend()
+    ax.legend(fontsize=7)
     return _save(fig, out, "fig_1_9_torque_resistance.png")
 
 
@@ -243,9 +256,16 @@ def torque_balance(runs, out):
         f = run["rings"]
         st = _style(run, k)
         t, e = float(f["inner_torque"]), float(f.get("inner_torque_err", np.nan))
+        if not (math.isfinite(t) and t != 0):  # e.g. averages taken before the shear began
+            ax.plot([], [], " ", label=f"{run['label']}: no torque from the inner ring "
+                    f"(T_inner = {t:.3g} N m), nothing to normalise by")
+            continue
         err = f.get("shear_torque_err")
         _errorbar(ax, f["r_tilde"], f["shear_torque"] / t, None if err is None else err / abs(t),
                   run, k, label=f"{run['label']}: 2π h r² σ_φr / T_inner (T_inner = {t:.3g} N m)")
+        if "shear_torque_total" in f:
+            ax.plot(f["r_tilde"], f["shear_torque_total"] / t, "-", lw=0.7, color=st["color"],
+                    label=f"{run['label']}: with the kinetic stress, 2π h r² (σ + σ_kin)_φr")
         ax.axhspan(1 - e / abs(t), 1 + e / abs(t), color=st["color"], alpha=0.2, lw=0)
     ax.set(xlabel="r̃", ylabel="torque through the ring / inner-ring torque",
            xlim=(0, _r_max(runs)), ylim=(-1, 3))

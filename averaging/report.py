@@ -4,7 +4,8 @@ Stage: averaging (validation). Every metric is computed from ``read_rings(DIR)``
 scene, and is defined here once; ``run_scripts/paper_figures.py`` puts them in the comparison
 table. Regions are in r~ = (r - R_i)/d~:
 
-- fit_v0, fit_s: v_phi/(Omega R_i) = v0 exp(-r~/s) over 0.25 <= r~ <= 8.1 (rings.py).
+- fit_v0, fit_s: v_phi/(Omega R_i) = v0 exp(-r~/s) over 0.25 <= r~ <= 8.1 by least squares
+  on v (the primary fit, docs/roughness.md); fit_v0_log, fit_s_log: a line through log v.
 - dilation: nu_bulk = mean nu over 10 <= r~ <= 15 (the frozen outer packing, paper §1.4.1);
   deficit = nu_bulk - mean nu over 1 <= r~ <= 4; width = the r~ where nu, smoothed over one d~,
   first comes within 0.01 of nu_bulk (outside the first layer, r~ > 1).
@@ -23,8 +24,11 @@ table. Regions are in r~ = (r - R_i)/d~:
   out in time in the frozen outer packing): chi^2/dof about the mean with block errors
   (about 1: flat within the errors) and the fraction within 2 errors. Compared with the
   torque of the inner ring on the particles, from its contacts.
+  shear_torque_total_*: the same with the kinetic stress, 2 pi h r^2 (sigma + sigma_kin)_phir.
 - mu_c_outer: median of mu_c/k'_n over 4 <= r~ <= 15 (the paper: mu_c grows with density;
   the median, because kappa_zr passes through zero in some rings).
+- regime in the band (1 <= r~ <= 4) and the bulk (10 <= r~ <= 15): the inertial number I
+  (median over the rings), contacts per disk, pressure with and without the kinetic part.
 """
 
 from __future__ import annotations
@@ -37,6 +41,7 @@ import numpy as np
 from pardem.scene import load_scene
 from pardem.check import volume_fraction
 
+from .derived import exponential_fit, log_exponential_fit
 from .io import read_rings
 from .timeavg import ERROR_BLOCKS, block_error
 
@@ -72,7 +77,7 @@ def load_run(run_dir: str | Path, label: str | None = None, paper: str | None = 
         label = run_dir.parent.name if run_dir.name == "offline" else run_dir.name
     return {"dir": run_dir, "name": paper or label, "paper": paper, "label": label,
             "scene": scene.info.name, "rings": rings,
-            "k_n_2d": c.k_n / c.height, "height": c.height, "d_ref": d_ref,
+            "k_n_2d": c.k_n / c.height, "k_t": c.k_t, "height": c.height, "d_ref": d_ref,
             "wall_speed": g.omega_inner * g.inner_radius, "r_in": g.inner_radius,
             "nu_bar": global_volume_fraction(scene), "n_samples": rings["times"].size,
             "window": (float(rings["times"][0]), float(rings["times"][-1]))}
@@ -92,7 +97,11 @@ def _mean(values: np.ndarray, median: bool = False) -> float:
 
 def metrics(run: dict) -> dict:
     f = run["rings"]
-    out = {"fit_v0": float(f["fit_v0"]), "fit_s": float(f["fit_s"])}
+    # both fits from the profile (files written before the primary fit changed hold the log
+    # fit under fit_v0)
+    out = dict(zip(("fit_v0", "fit_s"), exponential_fit(f["r_tilde"], f["v_phi_norm"])))
+    out.update(zip(("fit_v0_log", "fit_s_log"),
+                   log_exponential_fit(f["r_tilde"], f["v_phi_norm"])))
     bulk = _mean(f["nu"][_region(f, 10, 15)])
     out["nu_bulk"] = bulk
     out["dilation_deficit"] = bulk - _mean(f["nu"][_region(f, 1, 4)])
@@ -116,6 +125,11 @@ def metrics(run: dict) -> dict:
     per_window = np.array([w.mean(axis=1) for w in _windows(per_ring, 1.0 / _step(f))]).T
     mean, mean_err = block_mean(per_ring.mean(axis=1))
     out["shear_torque_mean"], out["shear_torque_mean_err"] = float(mean), float(mean_err)
+    has_kinetic = "kin_rphi" in f["columns"]  # older files lack the kinetic sums
+    kinetic = ring_torques(run, kinetic=True)[:, zone] if has_kinetic else np.nan
+    total, total_err = block_mean((per_ring + kinetic).mean(axis=1))
+    out["shear_torque_total_mean"] = float(total)
+    out["shear_torque_total_mean_err"] = float(total_err)
     for label, series in (("", per_ring), ("_window", per_window)):
         values, errs = block_mean(series)
         dev = (values - values.mean()) / errs
@@ -125,16 +139,33 @@ def metrics(run: dict) -> dict:
     out["inner_torque_err"] = float(f.get("inner_torque_err", math.nan))
     mu = f["mu_c"][_region(f, 4, 15)] / run["k_n_2d"]
     out["mu_c_outer"] = _mean(mu, median=True)
+    nan = np.full(f["r"].size, np.nan)
+    for zone, (lo, hi) in (("band", (1, 4)), ("bulk", (10, 15))):
+        sel = _region(f, lo, hi)
+        out[f"inertial_number_{zone}"] = _mean(f.get("inertial_number", nan)[sel], median=True)
+        out[f"contacts_per_disk_{zone}"] = _mean(f["C_number"][sel])
+        out[f"pressure_{zone}"] = _mean(0.5 * f["tr_sigma"][sel])
+        out[f"pressure_kin_{zone}"] = _mean(f.get("pressure_kin", nan)[sel])
     return out
 
 
-def ring_torques(run: dict) -> np.ndarray:
+def ring_torques(run: dict, kinetic: bool = False) -> np.ndarray:
     """T = 2 pi h r^2 sigma_phir (N m) of every sample and ring [samples, rings], from the raw
-    sums (sigma_phir = stress_phir / V with V = 2 pi h r dr), as RingAverager's shear_torque."""
+    sums (sigma_phir = stress_phir / V with V = 2 pi h r dr), as RingAverager's shear_torque;
+    ``kinetic``: the kinetic stress's part instead, each sample's momentum flux about the
+    window's mean flow u = <mmom>/<mass> (its time mean is the field sigma_kin_phir)."""
     f = run["rings"]
-    col = f["columns"].index("stress_phir")
+    s, col = f["sums"], f["columns"].index
     dr = f["r"][1] - f["r"][0]
-    return f["sums"][:, :, col] * f["r"] / dr
+    if not kinetic:
+        return s[:, :, col("stress_phir")] * f["r"] / dr
+    mass = s[:, :, col("mass")]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u_r, u_phi = (np.where(mass.mean(0) > 0, s[:, :, col(k)].mean(0) / mass.mean(0), 0.0)
+                      for k in ("mmom_r", "mmom_phi"))
+    flux = (s[:, :, col("kin_rphi")] - s[:, :, col("mmom_r")] * u_phi
+            - s[:, :, col("mmom_phi")] * u_r + mass * u_r * u_phi)
+    return flux * f["r"] / dr
 
 
 def block_mean(series: np.ndarray):

@@ -26,8 +26,8 @@ class Sample(NamedTuple):
     """Particles x [n,2] (m), v [n,2] (m/s), omega [n] (rad/s), radius [n] (m), mass [n] (kg);
     contacts of particle p in rows start[p]:start[p+1] of normal [m,2], overlap [m] (m),
     force [m,2] (N, on p), tangential [m,2] (m: the contact's tangential history t, so that the
-    contact displacement is Delta = delta n - t; the paper's eta (eq. 1.3) by default, the
-    spring xi with [averaging] displacement = "spring"); inner_torque (N m): the torque the
+    contact displacement is Delta = delta n - t; the elastic spring xi by default, the total
+    tangential displacement eta of eq. 1.3 with [averaging] displacement = "eta"); inner_torque (N m): the torque the
     inner ring exerts on these particles (this rank's share)."""
 
     x: np.ndarray
@@ -76,7 +76,7 @@ DISPLACEMENTS = {"eta": "displacement", "spring": "spring"}
 
 
 def oriented_rows(i, j, as_i, as_j, pairs: dict, ring_owner=None, ring: dict | None = None,
-                  displacement: str = "eta"):
+                  displacement: str = "spring"):
     """Per-contact rows ``(owner, normal, overlap, force, tangential)`` seen from each particle
     that gets a share: a pair table's row counts for i where ``as_i`` and, negated, for j where
     ``as_j``; ring-contact rows count for ``ring_owner``. Force = normal_force n + tangential
@@ -114,7 +114,7 @@ def sample_simulation(sim) -> Sample:
     cfg = sim.scene.averaging
     owner, normal, overlap, force, tangential = oriented_rows(
         i, j, i < n_owned, j < n_owned, t, None if ring is None else ring["index"], ring,
-        cfg.displacement if cfg is not None else "eta")
+        cfg.displacement if cfg is not None else "spring")
     sl = slice(0, n_owned)
     return from_contacts(rows["x"][sl], rows["v"][sl], rows["omega"][sl], rows["radius"][sl],
                          rows["mass"][sl], owner, normal, overlap, force, tangential,
@@ -137,7 +137,7 @@ def _inner_torque(rows: dict, t: dict, i, j, n_owned: int, ring: dict | None) ->
     return torque
 
 
-def snapshot_sample(snap: dict, displacement: str = "eta") -> Sample:
+def snapshot_sample(snap: dict, displacement: str = "spring") -> Sample:
     """The free particles of a snapshot (rows sorted by id, so a free particle's row is its id)
     and their contacts, oriented towards each free partner; ``displacement``: "eta" or "spring"
     for the tangential part of Delta (``oriented_rows``)."""

@@ -52,6 +52,13 @@ def accumulate(particles, contacts, rings, out):
         q[S.spin] = vol * omega[p]
         q[S.coord] = vol * (start[p + 1] - start[p])
         q[S.contacts] = start[p + 1] - start[p]
+        vr, vphi = v[p, 0] * erx + v[p, 1] * ery, -v[p, 0] * ery + v[p, 1] * erx
+        q[S.diam] = 2.0 * a
+        q[S.mmom_r] = mass[p] * vr
+        q[S.mmom_phi] = mass[p] * vphi
+        q[S.kin_rr] = mass[p] * vr * vr
+        q[S.kin_rphi] = mass[p] * vr * vphi
+        q[S.kin_phiphi] = mass[p] * vphi * vphi
         for c in range(start[p], start[p + 1]):
             nr = cn[c, 0] * erx + cn[c, 1] * ery
             nphi = -cn[c, 0] * ery + cn[c, 1] * erx

@@ -61,9 +61,10 @@ def main(argv: list[str] | None = None) -> int:
     avg.add_argument("--ring-width", type=metres,
                      help="m (default: the scene's, or the smallest free diameter / 8)")
     avg.add_argument("--weighting", choices=["slice", "exact", "centre", "gaussian"])
-    avg.add_argument("--displacement", choices=["eta", "spring"],
+    avg.add_argument("--displacement", choices=["spring", "eta"],
                      help="tangential part of the contact displacement in eps and kappa: the "
-                          "paper's total tangential displacement eta (default) or the spring")
+                          "elastic spring xi (default: the scene's) or the total tangential "
+                          "displacement eta (eq. 1.3 read literally)")
     avg.add_argument("--out", help="folder for rings.h5/rings.csv (default: RUN_DIR/offline)")
     plot = sub.add_parser("plot", help="the paper's figures (PNG) from ring averages")
     plot.add_argument("run_dirs", nargs="+", help="run folder(s) with rings.h5 (several: "

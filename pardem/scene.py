@@ -222,11 +222,11 @@ class AveragingCfg:
     paper's) | "exact" | "centre" | "gaussian", see averaging/weights.py; default "slice"),
     reference_diameter (m, the d~ of r~ = (r - R_i)/d~ and of the
     v_phi decay length; "auto" = None: the mean free-particle diameter; the paper's scenes
-    set 8.0e-3), displacement ("eta": the tangential part of the contact displacement Delta in
-    eps and kappa is the paper's total tangential displacement eta of eq. 1.3, which keeps
-    growing while a contact slides (default); "spring": the Cundall-Strack spring xi, capped
-    at the Coulomb limit, with which M = (k_t/pi h) kappa . F holds identically and mu_c only
-    restates the fabric)."""
+    set 8.0e-3), displacement (the tangential part of the contact displacement Delta in eps and
+    kappa: "spring" (default), the elastic Cundall-Strack spring xi, held at the Coulomb cap
+    while a contact slides, with which M = (k_t/pi h) kappa . F holds identically; "eta", eq.
+    1.3 read literally, the total tangential displacement, which keeps growing while a
+    contact slides)."""
 
     start: float = key(180.0, "s", ">=0")
     end: float = key(239.0, "s")
@@ -234,7 +234,7 @@ class AveragingCfg:
     ring_width: float | None = key(None, "m", ">0")
     weighting: str = key("slice", rule="slice|exact|centre|gaussian")
     reference_diameter: float | None = key(None, "m", ">0")
-    displacement: str = key("eta", rule="eta|spring")
+    displacement: str = key("spring", rule="spring|eta")
 
 
 @dataclass(frozen=True)

@@ -55,7 +55,7 @@ class SimulationError(RuntimeError):
 def tracks_eta(scene: Scene, writes_output: bool) -> bool:
     """Whether a run keeps the paper's total tangential displacement eta (eq. 1.3) per contact:
     only with tangential friction, and only where something reads it: in-situ averaging with
-    [averaging] displacement = "eta" (the default), or contacts written with the snapshots
+    [averaging] displacement = "eta", or contacts written with the snapshots
     (offline averaging may use either). Otherwise the step loop is compiled without it."""
     if not scene.effects.tangential_friction:
         return False

@@ -206,7 +206,36 @@ def calibration_lines() -> list[str]:
     if chosen is not None:
         out += prediction_lines(chosen)
     out += ["## What moves the regime", "", REGIME_RULE]
+    if chosen is not None:
+        out += regime_lines(chosen)
     return out
+
+
+REGIME_MEASURES = [("lin_v0", "v₀ primary", 3), ("lin_s", "s primary", 3),
+                   ("fit_v0", "v₀ log fit", 3), ("fit_s", "s log fit", 3),
+                   ("I_band", "inertial number I, 1 ≤ r̃ ≤ 4 (median)", 4),
+                   ("I_bulk", "I, 10 ≤ r̃ ≤ 15", 5),
+                   ("contacts_band", "contacts per disk, 1 ≤ r̃ ≤ 4", 2),
+                   ("contacts_bulk", "contacts per disk, 10 ≤ r̃ ≤ 15", 2),
+                   ("p_band", "pressure ½tr σ, 1 ≤ r̃ ≤ 4 (N/m²)", 4),
+                   ("p_bulk", "pressure, 10 ≤ r̃ ≤ 15 (N/m²)", 4),
+                   ("p_kin_band", "kinetic pressure, 1 ≤ r̃ ≤ 4 (N/m²)", 5),
+                   ("psi6_band", "ψ₆ of the small disks, 1 ≤ r̃ ≤ 4", 3),
+                   ("psi6_bulk", "ψ₆, 10 ≤ r̃ ≤ 15", 3)]
+
+
+def regime_lines(n: int) -> list[str]:
+    """B with the calibrated N_in (its seeds) beside the one-change runs of REGIME."""
+    base = rs.rows_of(START[n] if n in START else cal_name(n))
+    runs = {key: rs.claim_rows(f"regime-{key}-N{n}") for key in REGIME}
+    if not any(runs.values()):
+        return ["Not run yet (stage `regime`).", ""]
+    heads = [f"B, N_in = {n} ({len(base)} seeds)"] + [label for label, _ in REGIME.values()]
+    out = ["| measure | " + " | ".join(heads) + " |", "|---" * (len(heads) + 1) + "|"]
+    out += rs.measure_rows([m for m in REGIME_MEASURES
+                            if any(m[0] in r for rows in [base, *runs.values()] for r in rows)],
+                           [base] + list(runs.values()))
+    return out + [""]
 
 
 def prediction_lines(n: int) -> list[str]:

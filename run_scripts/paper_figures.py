@@ -41,9 +41,11 @@ def table(runs: list[dict], m: dict[str, dict], info: dict) -> str:
         lambda q, n: f"{by_run[n]['nu_bar']:.4f} / {PAPER.get(n, {}).get('nu_bar', '–')}")
     row("averaging window (s), samples", lambda q, n: "{:.1f}–{:.1f}, {}".format(
         *by_run[n]["window"], by_run[n]["n_samples"]))
-    row("v₀ (ours / paper)", lambda q, n: f"{fmt(q['fit_v0'])} / {PAPER.get(n, {}).get('v0', '–')}")
-    row("decay length s (ours / paper)",
+    row("v₀, primary fit (ours / paper)",
+        lambda q, n: f"{fmt(q['fit_v0'])} / {PAPER.get(n, {}).get('v0', '–')}")
+    row("decay length s, primary fit (ours / paper)",
         lambda q, n: f"{fmt(q['fit_s'])} / {PAPER.get(n, {}).get('s', '–')}")
+    row("v₀, s of the log fit", lambda q, n: f"{fmt(q['fit_v0_log'])}, {fmt(q['fit_s_log'])}")
     row("s deviation from the paper",
         lambda q, n: f"{100 * (q['fit_s'] / PAPER[n]['s'] - 1):+.0f} %" if n in PAPER else "–")
     row("ν bulk (10 ≤ r̃ ≤ 15)", lambda q, n: fmt(q["nu_bulk"]))
@@ -59,6 +61,8 @@ def table(runs: list[dict], m: dict[str, dict], info: dict) -> str:
         lambda q, n: f"{100 * q['ordering_fraction']:.0f} %")
     row("torque 2πh r²σ_φr, mean over 1 ≤ r̃ ≤ 15 (N m)",
         lambda q, n: f"{q['shear_torque_mean']:.3e} ± {q['shear_torque_mean_err']:.1e}")
+    row("torque with the kinetic stress, 2πh r²(σ + σ_kin)_φr, 1 ≤ r̃ ≤ 15 (N m)",
+        lambda q, n: f"{q['shear_torque_total_mean']:.3e} ± {q['shear_torque_total_mean_err']:.1e}")
     row("torque of the inner ring from its contacts (N m)",
         lambda q, n: f"{q['inner_torque']:.3e} ± {q['inner_torque_err']:.1e}")
     row("flatness ring by ring (d̃/8): χ²/dof about the mean, within 2 errors",
@@ -67,6 +71,12 @@ def table(runs: list[dict], m: dict[str, dict], info: dict) -> str:
         lambda q, n: f"{q['shear_torque_chi2_window']:.2f}, "
                      f"{100 * q['shear_torque_within_2err_window']:.0f} %")
     row("μ_c / k'_n, median over 4 ≤ r̃ ≤ 15", lambda q, n: f"{q['mu_c_outer']:.3g}")
+    for zone, where in (("band", "1 ≤ r̃ ≤ 4"), ("bulk", "10 ≤ r̃ ≤ 15")):
+        row(f"regime, {where}: inertial number I (median), contacts per disk",
+            lambda q, n, z=zone: f"{q[f'inertial_number_{z}']:.3g}, "
+                                 f"{q[f'contacts_per_disk_{z}']:.2f}")
+        row(f"regime, {where}: pressure, its kinetic part (N/m²)",
+            lambda q, n, z=zone: f"{q[f'pressure_{z}']:.3g}, {q[f'pressure_kin_{z}']:.3g}")
     lines.append("")
     mu = [m[n]["mu_c_outer"] for n in names]
     checks = [("decay length s within 25 % of the paper", all(

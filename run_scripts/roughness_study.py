@@ -36,6 +36,7 @@ ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT))
 
 from averaging.offline import average_run  # noqa: E402
+from averaging.order import psi6_profile  # noqa: E402
 from averaging.report import PAPER, global_volume_fraction, load_run, metrics  # noqa: E402
 from pardem.output.snapshots import read_snapshots  # noqa: E402
 from pardem.scene import load_scene, write_scene  # noqa: E402
@@ -176,29 +177,6 @@ def checkpoint_time(path: Path) -> tuple[float | None, bool]:
 
 # ---------------------------------------------------------------- measures of one run
 
-def linear_fit(r: np.ndarray, v: np.ndarray, lo: float = 0.25, hi: float = 8.1):
-    """v = v0 exp(-r/s) by least squares on v itself (not log v): for each s the best v0 is
-    sum(v e)/sum(e^2); s by golden-section search on the residual over 0.05..50."""
-    sel = (r >= lo) & (r <= hi) & np.isfinite(v)
-    r, v = r[sel], v[sel]
-
-    def cost(s):
-        e = np.exp(-r / s)
-        v0 = (v @ e) / (e @ e)
-        return float(np.sum((v - v0 * e) ** 2)), v0
-
-    a, b = math.log(0.05), math.log(50.0)
-    g = (math.sqrt(5) - 1) / 2
-    for _ in range(80):
-        c, d = b - g * (b - a), a + g * (b - a)
-        if cost(math.exp(c))[0] < cost(math.exp(d))[0]:
-            b = d
-        else:
-            a = c
-    s = math.exp(0.5 * (a + b))
-    return cost(s)[1], s
-
-
 def measure(run_dir: Path) -> dict:
     """Every measure of the study for one finished run folder (rings.h5 + snapshots)."""
     run = load_run(run_dir)
@@ -206,14 +184,16 @@ def measure(run_dir: Path) -> dict:
     f = run["rings"]
     m = metrics(run)
     r = f["r_tilde"]
-    out = {k: m[k] for k in ("fit_v0", "fit_s", "nu_bulk", "dilation_deficit", "dilation_width",
+    out = {k: m[k] for k in ("nu_bulk", "dilation_deficit", "dilation_width",
                              "stiffness_excess", "inner_torque", "mu_c_outer")}
+    # the study's tables: fit_* the log fit (as in its first runs), lin_* the primary fit
+    out["fit_v0"], out["fit_s"] = m["fit_v0_log"], m["fit_s_log"]
     sheared = scene.geometry.omega_inner != 0
     sel = (r >= 0.25) & (r <= 8.1) & (f["v_phi_norm"] > 0)
     fit = out["fit_v0"] * np.exp(-r[sel] / out["fit_s"])
     out["fit_log_residual"] = (float(np.median(np.abs(np.log(f["v_phi_norm"][sel] / fit))))
                                if sheared else math.nan)
-    out["lin_v0"], out["lin_s"] = linear_fit(r, f["v_phi_norm"]) if sheared else (math.nan,) * 2
+    out["lin_v0"], out["lin_s"] = (m["fit_v0"], m["fit_s"]) if sheared else (math.nan,) * 2
     band = (r >= 1) & (r <= 3)
     out["bulk_friction"] = float(np.mean(f["sigma_rphi"][band]) / np.mean(f["sigma_rr"][band]))
     bulk = (r >= 10) & (r <= 15)
@@ -237,6 +217,7 @@ def measure(run_dir: Path) -> dict:
     out["wall_friction"] = out["inner_torque"] / load if load > 0 else math.nan
     for which in ("eta", "spring"):
         out.update(displacement_measures(run_dir, scene, which))
+    out.update(regime_measures(run_dir, scene))
     out["v_bar_wall"] = wall_fraction(scene)
     out["v_bar"] = global_volume_fraction(scene)
     out["profile"] = {"r_tilde": r.tolist(), "v_phi_norm": f["v_phi_norm"].tolist(),
@@ -266,6 +247,29 @@ def displacement_measures(run_dir: Path, scene, which: str) -> dict:
                     f["shear_resistance"][band] / f["tr_F"][band])),
                 f"mu_c_outer_{which}": float(np.nanmedian(f["mu_c"][(r >= 4) & (r <= 15)]) / k2),
                 f"dev_eps_band_{which}": float(np.nanmean(f["dev_eps"][band]))}
+
+
+def regime_measures(run_dir: Path, scene) -> dict:
+    """The flow regime in the band (1 <= r~ <= 4) and the bulk (10 <= r~ <= 15), from offline
+    averages of the snapshots in the averaging window (in-situ files of older runs lack the
+    kinetic sums): inertial number (median over the rings), contacts per disk, pressure and
+    its kinetic part, and psi_6 of the small disks (averaging/order.py)."""
+    avg = average_run(run_dir)
+    f = avg.fields()
+    cfg, g = scene.averaging, scene.geometry
+    r = f["r_tilde"]
+    snaps = [s for s in read_snapshots(run_dir) if cfg.start - 1e-9 <= s["time"] <= cfg.end + 1e-9]
+    out = {}
+    for zone, (lo, hi) in (("band", (1, 4)), ("bulk", (10, 15))):
+        sel = (r >= lo) & (r <= hi)
+        with np.errstate(invalid="ignore"):
+            out[f"I_{zone}"] = float(np.nanmedian(f["inertial_number"][sel]))
+            out[f"contacts_{zone}"] = float(np.nanmean(f["C_number"][sel]))
+            out[f"p_{zone}"] = float(np.nanmean(f["pressure"][sel]))
+            out[f"p_kin_{zone}"] = float(np.nanmean(f["pressure_kin"][sel]))
+        psi = psi6_profile(snaps, g.inner_radius, avg.d_ref, np.array([lo, hi], float))
+        out[f"psi6_{zone}"] = float(psi[0])
+    return out
 
 
 def wall_contacts(run_dir: Path, scene) -> dict:
@@ -357,6 +361,7 @@ def rows_of(prefix: str) -> list[dict]:
 
 
 def fmt(rows: list[dict], key: str, digits: int = 3) -> str:
+    rows = [r for r in rows if key in r]  # tables of older runs lack the newer measures
     if not rows:
         return "–"
     mean, err = seed_stats(rows, key)

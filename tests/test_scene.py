@@ -143,7 +143,7 @@ BAD_COUETTE = [
     ("averaging.reference_diameter", -8e-3, r"[averaging] reference_diameter = -0.008"),
     ("averaging.reference_diameter", "big", r"[averaging] reference_diameter = 'big'"),
     ("averaging.displacement", "xi",
-     r"[averaging] displacement = 'xi': must be one of 'eta', 'spring'"),
+     r"[averaging] displacement = 'xi': must be one of 'spring', 'eta'"),
     ("particles", [{"x": 0.0, "y": 0.0, "diameter": D_S, "mass": M_S}],
      r"[[particles]]: not allowed in a couette scene"),
     ("particles_file", "init.csv", r"particles_file: not allowed in a couette scene"),
