@@ -8,7 +8,9 @@ Stage: averaging output (rank 0). Every file is written under a temporary name a
 
 from __future__ import annotations
 
+import errno
 import os
+import shutil
 from pathlib import Path
 
 import h5py
@@ -19,23 +21,22 @@ from .mesh import write_rings_vtu
 
 
 def write_rings(out_dir: Path, avg) -> None:
-    """The files of a RingAverager ``avg`` into out_dir."""
+    """The files of a RingAverager ``avg`` into out_dir. Refused before writing (OSError
+    ENOSPC naming rings.h5) when the disk has less free space than the files need: h5py
+    writing into a full disk floods the terminal and can crash the interpreter; a failed
+    write leaves no temporary file."""
     f = avg.fields()
+    sums = np.array(avg.samples)
+    need = 2 * (sums.nbytes + sum(np.asarray(v).nbytes for v in f.values())) + 2**20
+    if shutil.disk_usage(out_dir).free < need:
+        raise OSError(errno.ENOSPC, f"No space left on device (rings need ~{need / 1e6:.1f} "
+                                    "MB)", str(out_dir / "rings.h5"))
     tmp = out_dir / "rings.h5.tmp"
-    with h5py.File(tmp, "w") as h5:
-        h5.attrs.update({"format": "pardem-rings", "ring_width": avg.dr,
-                         "inner_radius": avg.r_in, "weighting": avg.weighting,
-                         "height": avg.height, "n_samples": len(avg.samples),
-                         "reference_diameter": avg.d_ref})
-        for key, value in f.items():
-            h5.create_dataset(f"fields/{key}", data=value)
-            h5[f"fields/{key}"].attrs["unit"] = FIELD_UNITS.get(key.removesuffix("_err"), "")
-        h5.create_dataset("sums", data=np.array(avg.samples))
-        h5["sums"].attrs["columns"] = ",".join(COLUMNS)
-        h5["sums"].attrs["units"] = ",".join(UNITS[c] for c in COLUMNS)
-        h5.create_dataset("times", data=np.array(avg.times))
-        h5.create_dataset("inner_torque", data=np.array(avg.torques))
-        h5["inner_torque"].attrs["unit"] = "N m"
+    try:
+        _write_h5(tmp, avg, f, sums)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
     os.replace(tmp, out_dir / "rings.h5")
     keys = [k for k in f if np.ndim(f[k]) == 1]  # per-ring columns (fit scalars: h5 only)
     header = ",".join(f"{k} [{FIELD_UNITS.get(k.removesuffix('_err'), '')}]" for k in keys)
@@ -44,6 +45,23 @@ def write_rings(out_dir: Path, avg) -> None:
                comments="")
     os.replace(tmp, out_dir / "rings.csv")
     write_rings_vtu(out_dir / "rings.vtu", f, avg.r_in + np.arange(avg.n_rings + 1) * avg.dr)
+
+
+def _write_h5(tmp: Path, avg, f: dict, sums: np.ndarray) -> None:
+    with h5py.File(tmp, "w") as h5:
+        h5.attrs.update({"format": "pardem-rings", "ring_width": avg.dr,
+                         "inner_radius": avg.r_in, "weighting": avg.weighting,
+                         "height": avg.height, "n_samples": len(avg.samples),
+                         "reference_diameter": avg.d_ref})
+        for key, value in f.items():
+            h5.create_dataset(f"fields/{key}", data=value)
+            h5[f"fields/{key}"].attrs["unit"] = FIELD_UNITS.get(key.removesuffix("_err"), "")
+        h5.create_dataset("sums", data=sums)
+        h5["sums"].attrs["columns"] = ",".join(COLUMNS)
+        h5["sums"].attrs["units"] = ",".join(UNITS[c] for c in COLUMNS)
+        h5.create_dataset("times", data=np.array(avg.times))
+        h5.create_dataset("inner_torque", data=np.array(avg.torques))
+        h5["inner_torque"].attrs["unit"] = "N m"
 
 
 def read_rings(run_dir: str | Path) -> dict[str, np.ndarray]:

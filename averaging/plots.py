@@ -103,8 +103,9 @@ def velocity(runs, out):
             p = PAPER[run["paper"]]
             ax.plot(r, p["v0"] * np.exp(-r / p["s"]), ":", color=st["color"],
                     label=f"paper {run['paper']}: v₀ = {p['v0']}, s = {p['s']}")
+    ax.set(ylim=(1e-4, 2))  # fixed before the log scale: a run without flow has no data for it
     ax.set_yscale("log")
-    ax.set(xlabel="r̃", ylabel="v_φ / (Ω R_i)", xlim=(0, _r_max(runs)), ylim=(1e-4, 2))
+    ax.set(xlabel="r̃", ylabel="v_φ / (Ω R_i)", xlim=(0, _r_max(runs)))
     ax.legend(fontsize=7)
     return _save(fig, out, "fig_1_3_velocity.png")
 

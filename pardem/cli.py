@@ -90,7 +90,11 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr.write(f"pardem: error: pardem render needs pyvista ({e}); install it "
                              "with: pip install -e \".[viz]\"\n")
             return 2
-        return render(args)
+        try:
+            return render(args)
+        except UNREADABLE + (RuntimeError,) as e:
+            sys.stderr.write(f"pardem: error: {unreadable(args.run_dir, e)}\n")
+            return 2
     if args.command == "average":
         return _average(args)
     if args.command == "plot":
@@ -153,7 +157,8 @@ def main(argv: list[str] | None = None) -> int:
         abort(comm, 130)
         return 130
     except BaseException as e:
-        full = isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT)
+        # a full disk, a quota, or a file-size limit (ulimit -f): the same for the user
+        full = isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
         if full:  # checkpoints go to a temporary name first: the last one is whole
             sys.stderr.write(f"pardem: error: rank {rank}: {e.strerror} while writing "
                              f"{e.filename or 'the output'}; the last complete checkpoint is "
@@ -167,7 +172,7 @@ def main(argv: list[str] | None = None) -> int:
             if not full:
                 sys.stderr.write(f"pardem: rank {rank} failed:\n{traceback.format_exc()}")
             sys.stderr.flush()
-            abort(comm)
+            abort(comm, 4 if full else 1)  # mpiexec passes the code on: 4 as documented
         if full:
             return 4
         raise
@@ -275,6 +280,10 @@ def _average(args) -> int:
         sys.stderr.write(f"pardem: error: {e}\n")
         return 2
     except UNREADABLE as e:
+        if isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG):
+            sys.stderr.write(f"pardem: error: {e.strerror} while writing {e.filename}; "
+                             "nothing was replaced: free space and average again\n")
+            return 4
         sys.stderr.write(f"pardem: error: {unreadable(args.run_dir, e)}\n")
         return 2
     sys.stderr.write(f"pardem: {len(avg.samples)} snapshots averaged into {avg.n_rings} rings: "

@@ -46,11 +46,22 @@ def particles_from_file(name: Any, base_dir: Path) -> dict[str, np.ndarray]:
         raise SceneError(f"particles_file = {show(name)}: expected a file name (.csv or .h5)")
     path = base_dir / name
     label = f"particles_file = {name!r}"
-    if not path.is_file():
+    if not path.exists():
         raise SceneError(f"{label}: no such file {str(path)!r}")
+    if path.is_dir():
+        raise SceneError(f"{label}: {str(path)!r} is a folder; expected a .csv or .h5 file")
+    if not path.is_file():
+        raise SceneError(f"{label}: {str(path)!r} is not a regular file (a device or a pipe); "
+                         "expected a .csv or .h5 file")
     cols: dict[str, np.ndarray] = {}
     if path.suffix.lower() == ".csv":
-        lines = [ln for ln in path.read_text().splitlines() if ln.strip()]
+        # a byte-order mark (spreadsheet exports) and '#' comment lines are allowed
+        try:
+            text = path.read_text(encoding="utf-8-sig")
+        except UnicodeDecodeError as e:
+            raise SceneError(f"{label}: not a UTF-8 text file ({e.reason} at byte "
+                             f"{e.start})") from None
+        lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
         if len(lines) < 2:
             raise SceneError(f"{label}: expected a header row and at least one particle row")
         header = [h.strip() for h in lines[0].split(",")]
@@ -113,7 +124,8 @@ def check_particles(cols: dict[str, np.ndarray], where: str) -> FreeParticles:
     if pair is not None:
         i, j = pair
         if x[i] == x[j] and y[i] == y[j]:
-            raise SceneError(f"{where} #{i} and #{j}: identical positions ({x[i]!r}, {y[i]!r})")
+            raise SceneError(f"{where} #{i} and #{j}: identical positions ({show(x[i])}, "
+                             f"{show(y[i])})")
         ov = 0.5 * (d[i] + d[j]) - math.hypot(x[i] - x[j], y[i] - y[j])
         raise SceneError(f"{where} #{i} and #{j} overlap by {ov:.3g} m = "
                          f"{100 * ov / min(d[i], d[j]):.3g}% of the smaller diameter "

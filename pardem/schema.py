@@ -98,6 +98,11 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
         a = _parse(d["averaging"], "averaging", "[averaging]")
         if not a["end"] > a["start"]:
             raise fail("[averaging]", "end", a["end"], f"must be > start = {a['start']!r}", "s")
+        window = a["end"] - a["start"]
+        if math.isfinite(window) and a["sample_interval"] > window:
+            raise fail("[averaging]", "sample_interval", a["sample_interval"],
+                       f"longer than the averaging window end - start = {window:g} s: "
+                       "not one sample apart", "s")
         averaging = AveragingCfg(**a)
     geometry, species, particles = None, (), None
     if kind == "couette":
@@ -183,7 +188,7 @@ MAX_RINGS = 100_000
 
 def ring_width_problem(width: float, gap: float) -> str | None:
     """Why rings of ``width`` (m) cannot cover a gap of ``gap`` (m), or None."""
-    if width > gap:
+    if width > gap * (1 + 1e-9):  # one ring as wide as the gap is fine (0.09 - 0.05 < 0.04)
         return f"wider than the gap outer_radius - inner_radius = {gap:.6g} m"
     if gap / width > MAX_RINGS:
         return (f"{gap / width:.3g} rings across the gap of {gap:.6g} m; at most {MAX_RINGS} "
@@ -212,14 +217,16 @@ def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, .
         if g.volume_fraction > densest:
             raise fail("[geometry]", "volume_fraction", g.volume_fraction,
                        f"above {densest:.4f}, {what}")
-        total = sum(s.share for s in species)
-        per_disk = sum(s.share / total * math.pi * s.diameter**2 / 4 for s in species)
+        # shares are relative: divide by the largest first (1e308 + 1e308 overflows)
+        top = max(s.share for s in species)
+        total = sum(s.share / top for s in species)
+        per_disk = sum(s.share / top / total * math.pi * s.diameter**2 / 4 for s in species)
         n = (g.volume_fraction * area - walls) / per_disk
         if n < 1:
             raise fail("[geometry]", "volume_fraction", g.volume_fraction,
                        f"the wall disks alone fill {walls / area:.4f} of the cell")
-        species = tuple(dataclasses.replace(s, count=int(round(s.share / total * n)), share=None)
-                        for s in species)
+        species = tuple(dataclasses.replace(s, count=int(round(s.share / top / total * n)),
+                                            share=None) for s in species)
         g = dataclasses.replace(g, volume_fraction=None)
     if sum(s.count for s in species) < 1:
         raise SceneError("[[species]] count: total count must be >= 1")

@@ -178,11 +178,15 @@ def check_layout(g, ring: str, smallest_free: float):
         return (f"{ring}_flat_surface", False, f"a ring with {ring}_wall_count = 0 (smooth) needs "
                 "its flat surface, or the free disks would leave the cell through it")
     widest = g.outer_start_radius if ring == "outer" else g.inner_radius
-    gap = 2.0 * widest * math.sin(math.pi / w.count) - w.diameter if w.count > 1 else math.inf
+    if w.count == 1:
+        return (f"{ring}_flat_surface", False, f"without the flat surface a single wall disk "
+                f"leaves the rest of the {ring} ring open for the free disks to leave the cell; "
+                "use more wall disks or keep the flat surface")
+    gap = 2.0 * widest * math.sin(math.pi / w.count) - w.diameter
     if gap >= smallest_free:
         return (f"{ring}_flat_surface", False, f"without the flat surface the {w.count} wall "
-                f"disks leave gaps of {gap:.6g} m (at radius {widest!r} m), wide enough for the "
-                f"smallest free disk ({smallest_free!r} m) to pass; use more wall disks or keep "
+                f"disks leave gaps of {gap:.6g} m (at radius {widest:.6g} m), wide enough for the "
+                f"smallest free disk ({smallest_free:.6g} m) to pass; use more wall disks or keep "
                 "the flat surface")
     return None
 

@@ -116,7 +116,7 @@ def test_a_restart_continues_the_ring_averages_exactly(tmp_path):
 @pytest.mark.parametrize("change, message", [
     ({"ring_width": 3e-3}, r"ring_width = 0\.002.*has 0\.003"),
     ({"weighting": "exact"}, "weighting"),
-    ({"displacement": "spring"}, "displacement"),
+    ({"displacement": "eta"}, "displacement"),
     ({"sample_interval": 0.05}, "start or sample_interval differ"),
     ({"start": 0.15}, "start or sample_interval differ"),
 ])

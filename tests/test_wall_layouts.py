@@ -108,7 +108,8 @@ def test_every_layout_runs_bitwise_identically_on_1_and_2_ranks(tmp_path, name):
     """Compression and 0.13 s of fast shear, migrations included."""
     path = tmp_path / f"{name}.toml"
     write_scene(couette_scene(counts=(260, 40), geometry={**FAST, **SMALL_LAYOUTS[name]},
-                              name=name, averaging={"start": 10.0, "end": 20.0}), path)
+                              name=name, averaging={"start": 10.0, "end": 20.0,
+                                                    "displacement": "eta"}), path)
     steps = 6000
     ref = dump_state(path, steps, tmp_path / "r1.npz", 1)
     got = dump_state(path, steps, tmp_path / "r2.npz", 2)

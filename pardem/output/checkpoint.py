@@ -31,18 +31,32 @@ PAIRS = ("pair_lo", "pair_hi", "pair_hist", "force_lo", "force_hi", "pair_force"
 VERSION = 2
 
 
+@contextmanager
+def writing(path: Path):
+    """Write ``path`` through ``path.tmp``, renamed at the end: a failed write removes the
+    temporary file and its OSError names ``path`` (h5py's errors name no file, so a full
+    disk's message could not say what was being written)."""
+    tmp = path.with_name(path.name + ".tmp")
+    try:
+        yield tmp
+    except OSError as e:
+        tmp.unlink(missing_ok=True)
+        raise OSError(e.errno, e.strerror or str(e), str(path)) from e
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    os.replace(tmp, path)
+
+
 def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
                     attrs: dict[str, object]) -> None:
-    path = Path(path)
-    tmp = path.with_name(path.name + ".tmp")
-    with h5py.File(tmp, "w") as h5:
+    with writing(Path(path)) as tmp, h5py.File(tmp, "w") as h5:
         h5.attrs["format"] = "pardem-checkpoint"
         h5.attrs["version"] = VERSION
         for k, v in attrs.items():
             h5.attrs[k] = v
         for k, v in arrays.items():
             h5.create_dataset(k, data=v)
-    os.replace(tmp, path)
 
 
 def checkpoint_file(path: str | os.PathLike) -> Path:
@@ -84,7 +98,7 @@ def open_checkpoint(path: str | os.PathLike):
             names = str(attrs.get("history_columns", ""))
             attrs["history_columns"] = tuple(names.split(",")) if names else ()
             yield arrays, attrs
-    except OSError as e:
+    except (OSError, RuntimeError) as e:  # h5py: RuntimeError for a damaged link table
         raise SceneError(f"--restart {path}: unreadable or truncated checkpoint ({e})") from e
 
 

@@ -3,7 +3,10 @@
 Stage: output (rank 0). A folder "holds a run" when it has any of ``RUN_FILES``. A restart
 into a folder that holds the same scene's run continues it (snapshots after the checkpoint
 are replaced); anything else needs ``overwrite`` (``pardem run --overwrite``), which removes
-those files first, so that old and new files never mix. While a job claims the folder or
+those files first, so that old and new files never mix. ``--overwrite`` removes only what
+pardem wrote: the names a run claimed are recorded in ``DIR/.pardem-files`` (``MANIFEST``),
+and a file of one of those names that pardem did not write (a user's own scene.toml in
+``--out .``, a symlink, a mount point) stops the run instead of being deleted. While a job claims the folder or
 writes into it, it holds ``FolderLock`` (an flock on ``DIR/.pardem-lock``, released by the
 kernel however the job ends, kill -9 included): a second job is refused, naming the first.
 """
@@ -25,6 +28,10 @@ RUN_FILES = ("scene.toml", "log.txt", "checkpoint.h5", "snapshots", "particles.x
 
 
 LOCK = ".pardem-lock"
+MANIFEST = ".pardem-files"
+LEGACY_SIGNS = ("checkpoint.h5", "snapshots", "particles.h5")
+"""A folder without a manifest counts as an earlier pardem version's run folder when it holds
+one of these (no user makes them by hand) or a scene.toml that pardem wrote."""
 
 
 class FolderLock:
@@ -63,7 +70,37 @@ class FolderLock:
 
 def run_files(out_dir: Path) -> set[str]:
     """The run files in ``out_dir`` now."""
-    return {name for name in RUN_FILES if (out_dir / name).exists()}
+    return {name for name in RUN_FILES if os.path.lexists(out_dir / name)}
+
+
+def written_by_pardem(out_dir: Path, present: set[str]) -> set[str]:
+    """Those of ``present`` that a pardem run wrote: the names of the folder's manifest, or
+    every run file of an earlier version's run folder (LEGACY_SIGNS); never a symlink or a
+    mount point, which pardem does not make."""
+    manifest = out_dir / MANIFEST
+    if manifest.exists():
+        ours = set(manifest.read_text(encoding="utf-8", errors="replace").split())
+    elif any(name in present for name in LEGACY_SIGNS) or _pardem_scene(out_dir / "scene.toml"):
+        ours = set(RUN_FILES)
+    else:
+        ours = set()
+    return {name for name in present & ours
+            if not (out_dir / name).is_symlink() and not os.path.ismount(out_dir / name)}
+
+
+def _pardem_scene(path: Path) -> bool:
+    try:
+        with open(path, encoding="utf-8", errors="replace") as f:
+            return f.readline().startswith("# pardem scene")
+    except OSError:
+        return False
+
+
+def record_claim(out_dir: Path) -> None:
+    """Write the manifest: every name a run in ``out_dir`` may write (atomically)."""
+    tmp = out_dir / (MANIFEST + ".tmp")
+    tmp.write_text("\n".join(RUN_FILES) + "\n", encoding="utf-8")
+    os.replace(tmp, out_dir / MANIFEST)
 
 
 def lock_unchanged(out_dir: Path, lock: FolderLock, claimed: set[str]) -> None:
@@ -100,9 +137,16 @@ def claim_folder(out_dir: Path, scene, restart, overwrite: bool, lock: FolderLoc
     lock.acquire()
     present = run_files(out_dir)
     found = [name for name in RUN_FILES if name in present]
+    foreign = sorted(present - written_by_pardem(out_dir, present))
+    if foreign:
+        raise SceneError(f"--out {out_dir}: {', '.join(foreign)} not written by pardem (a run "
+                         f"records its files in {MANIFEST}); pardem writes files of these "
+                         "names: move them, or choose another folder")
     if not found:
+        record_claim(out_dir)
         return []
     if restart is not None and not overwrite and _same_scene(out_dir / "scene.toml", scene):
+        record_claim(out_dir)
         return []
     if not overwrite:
         what = ("a run of another scene" if (out_dir / "scene.toml").exists()
@@ -120,6 +164,7 @@ def claim_folder(out_dir: Path, scene, restart, overwrite: bool, lock: FolderLoc
         if path.resolve() != keep:  # the checkpoint being continued from stays
             shutil.rmtree(path) if path.is_dir() else path.unlink()
             removed.append(name)
+    record_claim(out_dir)
     return removed
 
 
