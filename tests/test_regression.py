@@ -16,3 +16,16 @@ def test_state_matches_the_stored_reference(tmp_path, name, ranks):
     assert int(state["step"]) == ref["steps"]
     assert got["dynamics"] == ref["dynamics"], f"{name} on {ranks} ranks: trajectories differ"
     assert got["eta"] == ref["eta"], f"{name} on {ranks} ranks: eta differs"
+
+
+def test_a_restart_continues_to_the_stored_reference(tmp_path):
+    """fast_shear checkpointed halfway on 1 rank and continued on 2: the stored digest of the
+    uninterrupted run (the restart's part of the reference a refactor must keep)."""
+    name, ref = "fast_shear.toml", expected()["fast_shear.toml"]
+    half, ckpt = ref["steps"] // 2, tmp_path / "half.h5"
+    dump_state(REFERENCE / name, half, tmp_path / "a.npz", 1, "--checkpoint-at", str(half),
+               str(ckpt))
+    state = dump_state(REFERENCE / name, ref["steps"], tmp_path / "b.npz", 2, "--restart",
+                       str(ckpt))
+    assert int(state["step"]) == ref["steps"]
+    assert digest(state) == {"dynamics": ref["dynamics"], "eta": ref["eta"]}
