@@ -26,7 +26,8 @@ table. Regions are in r~ = (r - R_i)/d~:
   torque of the inner ring on the particles, from its contacts.
   shear_torque_total_*: the same with the kinetic stress, 2 pi h r^2 (sigma + sigma_kin)_phir.
 - mu_c_outer: median of mu_c/k'_n over 4 <= r~ <= 15 (the paper: mu_c grows with density;
-  the median, because kappa_zr passes through zero in some rings).
+  the median, because kappa_zr passes through zero in some rings); mu_c_band: the same over
+  0.5 <= r~ <= 3 (the paper: smaller in the dilute band than in the dense outer part).
 - regime in the band (1 <= r~ <= 4) and the bulk (10 <= r~ <= 15): the inertial number I
   (median over the rings), contacts per disk, pressure with and without the kinetic part.
 """
@@ -139,6 +140,7 @@ def metrics(run: dict) -> dict:
     out["inner_torque_err"] = float(f.get("inner_torque_err", math.nan))
     mu = f["mu_c"][_region(f, 4, 15)] / run["k_n_2d"]
     out["mu_c_outer"] = _mean(mu, median=True)
+    out["mu_c_band"] = _mean(f["mu_c"][_region(f, 0.5, 3)] / run["k_n_2d"], median=True)
     nan = np.full(f["r"].size, np.nan)
     for zone, (lo, hi) in (("band", (1, 4)), ("bulk", (10, 15))):
         sel = _region(f, lo, hi)

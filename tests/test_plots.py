@@ -95,9 +95,41 @@ def test_paper_figures_script_writes_figures_table_and_json(small_run, tmp_path)
     assert "decay length s" in table and "torque of the inner ring" in table
     data = json.loads((tmp_path / "comparison.json").read_text())
     (name,) = data["ours"]
-    assert all(isinstance(v, float) for v in data["ours"][name].values())  # NaN allowed:
+    ours = data["ours"][name]
+    assert ours.pop("seeds") == 1
+    assert all(isinstance(v, float) for v in ours.values())  # NaN allowed:
     # a quantity the short run cannot measure (here the bulk volume fraction) is NaN, not absent
     assert len(list((tmp_path / "scenes").glob("*.toml"))) == 1
+    assert "## What the paper states, against ours" in table
+
+
+def test_seeds_of_one_simulation_are_averaged_with_their_error(small_run, tmp_path):
+    """Two folders named as one simulation form a group: each number is the mean of the
+    folders' own metrics (computed here one by one), with the seed standard error."""
+    import json
+    import shutil
+    import sys
+
+    import h5py
+
+    sys.path.insert(0, str(ROOT / "run_scripts"))
+    import paper_figures
+
+    from averaging.report import load_run, metrics
+
+    other = tmp_path / "seed2"
+    shutil.copytree(small_run, other)
+    with h5py.File(other / "rings.h5", "r+") as h5:  # another seed: the inner torque doubled
+        h5["fields/inner_torque"][()] = 2 * h5["fields/inner_torque"][()]
+    each = [metrics(load_run(d))["inner_torque"] for d in (small_run, other)]
+    out = tmp_path / "res"
+    assert paper_figures.main([str(small_run), str(other), "--results", str(out),
+                               "--names", "B", "B"]) == 0
+    ours = json.loads((out / "comparison.json").read_text())["ours"]["B"]
+    assert ours["seeds"] == 2
+    assert ours["inner_torque"] == pytest.approx(0.5 * (each[0] + each[1]))
+    # standard error of the mean of two values: |a - b| / 2
+    assert ours["inner_torque_err"] == pytest.approx(abs(each[0] - each[1]) / 2)
 
 
 def test_runs_are_labelled_by_folder_and_compared_with_the_paper_only_when_they_are_its_scenes(
