@@ -62,7 +62,8 @@ class Snapshots(Writer):
     it is off the snapshot grid by more than 1 % of the period. A snapshot interval that is not
     a whole number of steps puts the grid's last step a few steps from the end (couette_quick:
     one); a second snapshot that close would show the same state twice, and the checkpoint
-    holds the exact end state."""
+    holds the exact end state. An end snapshot stands in for the next grid point: a continued
+    run's next snapshot replaces it (output/series.py)."""
 
     stage = "snapshots"
 
@@ -72,7 +73,7 @@ class Snapshots(Writer):
     def close(self, sim) -> None:
         period = self.trigger.period
         if sim.step % period > period // 100:
-            sim.write_snapshot()
+            sim.write_snapshot(end=True)
 
 
 class Checkpoints(Writer):
