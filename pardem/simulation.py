@@ -280,7 +280,7 @@ class Simulation(StateViews):
                 write_scene(self.scene, self.out_dir / "scene.toml")
             self.log(f"run {self.scene.info.name}: t = {self.time:.6g} s to {end:.6g} s, "
                      f"{self.n_free} particles, dt = {self.dt:.6g} s, {self.decomp.describe()}")
-            self._snapshot_series()  # the folder's series, checked before the first step
+            self._snapshot_series()  # the folder's series and indexes, checked before a step
             if snapshots.trigger.due(self.step):
                 self._timed("snapshots", self.write_snapshot)
         if root:  # said, not silently rounded or cut short
@@ -401,7 +401,8 @@ class Simulation(StateViews):
         """The series of snapshot files this run continues (collective, once)."""
         if self._series is None:
             self._series = self.decomp.bcast_call(continue_series, self.out_dir, self.step,
-                                                  self.snapshot_period, self._end_step)
+                                                  self.snapshot_period, self._end_step,
+                                                  self.log)
         return self._series
 
     def write_snapshot(self, end: bool = False) -> None:

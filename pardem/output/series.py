@@ -10,6 +10,8 @@ did. Two snapshots take the index of the one before them instead of the next: on
 step (a continued run writes its checkpoint's state again), and the one after an end snapshot
 off the snapshot grid (``Snapshots.close``: it stood in for the next grid point; a
 checkpoint records that its state's snapshot was such an end snapshot, ``end_snapshot``).
+A restart also rebuilds the XDMF indexes when they name files that are gone or leave some
+out (issue 51, L3), saying so in the log.
 """
 
 from __future__ import annotations
@@ -19,6 +21,7 @@ from pathlib import Path
 import h5py
 
 from ..scene import SceneError
+from . import xdmf
 from .xdmf import FOLDER, file_name, snapshot_indexes
 
 
@@ -44,19 +47,37 @@ class Series:
         return self.end and self.step == step
 
 
-def continue_series(out_dir: Path, step: int, period: int, end_step: int | None) -> Series:
+def continue_series(out_dir: Path, step: int, period: int, end_step: int | None,
+                    log) -> Series:
     """The series a run at ``step`` (snapshots every ``period`` steps) continues in
     ``out_dir``: the last snapshot file of a step up to ``step`` ends it (an end snapshot if at
     ``end_step``, the step of a checkpoint that says so); later files are the abandoned tail
     of a run past the checkpoint, which the first snapshot written drops (``write_snapshot``).
-    SceneError if a file the search reads is not a snapshot."""
+    XDMF indexes out of step with the files kept (a deleted snapshots/, an index cut short)
+    are rebuilt from them, and ``log`` says why. SceneError if a file the search reads is not
+    a snapshot."""
     stored = snapshot_indexes(out_dir)
-    for index in reversed(stored):
-        written = _step_of(out_dir / FOLDER / file_name(index))
+    series = None
+    for k in range(len(stored) - 1, -1, -1):
+        written = _step_of(out_dir / FOLDER / file_name(stored[k]))
         if written <= step:
-            return Series(index, written, written == end_step)
-    # nothing kept: a new series, or only a tail to drop, all of it (the first file is 0)
-    return Series(-1 if stored else -(-step // period) - 1, None, False)
+            series = Series(stored[k], written, written == end_step)
+            break
+    if series is None:  # a new series, or only a tail to drop, all of it (from file 0 on)
+        series, k = Series(-1 if stored else -(-step // period) - 1, None, False), -1
+    _mend_indexes(out_dir, stored[:k + 1], log)
+    return series
+
+
+def _mend_indexes(out_dir: Path, kept: list[int], log) -> None:
+    found = xdmf.problems(out_dir, kept)
+    if not found:
+        return
+    xdmf.rebuild(out_dir, kept[-1] if kept else -1)
+    log("continuing the snapshot series: " + "; ".join(found) + (
+        f": both indexes rebuilt from the {len(kept)} snapshot files {file_name(kept[0])} to "
+        f"{file_name(kept[-1])}" if kept else f": no snapshot files in {FOLDER}/ to index, "
+        "both indexes removed; the run writes new ones"))
 
 
 def _step_of(path: Path) -> int:

@@ -1,8 +1,10 @@
-"""Restarts that change the output settings (issue 51: H1): nothing written before the
-checkpoint is lost."""
+"""Restarts that change the output settings or find the output folder damaged (issue 51: H1,
+L3): nothing written before the checkpoint is lost, and the indexes name the files on disk."""
 
+import shutil
 import xml.etree.ElementTree as ET
 
+import h5py
 import numpy as np
 import pytest
 from helpers import couette_scene
@@ -61,3 +63,37 @@ def test_a_restart_with_another_snapshot_interval_keeps_every_earlier_snapshot(
             np.testing.assert_array_equal(s["position"], kept[s["step"]])
     names = sorted(p.name for p in (out / "snapshots").iterdir())
     assert names == [f"{i:06d}.h5" for i in range(len(want))]  # a series without holes
+
+
+def test_a_restart_after_the_snapshots_were_deleted_indexes_only_existing_files(tmp_path):
+    """L3: the user deleted snapshots/ after a run to 0.1 s; the restart to 0.15 s writes
+    0.1 ... 0.15, and the indexes name those files only (and the log says what was missing)."""
+    out = tmp_path / "run"
+    Simulation(cell(), out_dir=out).run(end=0.1, progress=False)
+    shutil.rmtree(out / "snapshots")
+    Simulation(cell(), out_dir=out, restart=out).run(end=0.15, progress=False)
+    want = centis(*range(10, 16))
+    assert [s["time"] for s in pardem.read_snapshots(out)] == want
+    assert index_times(out) == want
+    contacts = ET.parse(out / "contacts.xdmf").getroot()
+    for item in contacts.iter("DataItem"):
+        assert (out / item.text.split(":")[0]).exists(), item.text
+    log = (out / "log.txt").read_text()
+    assert "particles.xdmf named 11 snapshot files that are not in snapshots/" in log
+
+
+def test_a_restart_after_the_index_was_cut_short_indexes_every_snapshot(tmp_path):
+    """L3: particles.xdmf cut short (a full disk, an editor) after a run to 0.1 s: the restart
+    to 0.15 s indexes all 16 snapshots, not the few the damaged index still held."""
+    out = tmp_path / "run"
+    Simulation(cell(), out_dir=out).run(end=0.1, progress=False)
+    index = out / "particles.xdmf"
+    index.write_bytes(index.read_bytes()[:len(index.read_bytes()) * 2 // 3])
+    Simulation(cell(), out_dir=out, restart=out).run(end=0.15, progress=False)
+    want = centis(*range(16))
+    assert [s["time"] for s in pardem.read_snapshots(out)] == want
+    assert index_times(out) == want
+    log = (out / "log.txt").read_text()
+    assert "particles.xdmf was cut short" in log and "rebuilt" in log
+    with h5py.File(out / "snapshots" / "000015.h5") as h5:
+        assert h5.attrs["time"] == 0.15
