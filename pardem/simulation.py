@@ -272,6 +272,9 @@ class Simulation(StateViews):
         out = self.scene.output
         root = self.decomp.rank == 0
         writers = self._ring_writers(end_step)
+        for w in writers:  # a sample at the start step (t = 0 with start = 0) is one too
+            if w.trigger.due(self.step):
+                self._timed(w.stage, w.write, self)
         if self.out_dir is not None:
             snapshots = Snapshots(Every(self.snapshot_period))
             writers += [snapshots, Checkpoints(Every(round(out.checkpoint_interval / self.dt)))]
@@ -323,12 +326,14 @@ class Simulation(StateViews):
             raise stopped
 
     def _ring_writers(self, end_step: int) -> list:
-        """The in-situ ring sampler (none without [averaging]) at the sample steps after this
-        one, up to ``end_step``; its samples so far are kept (a later run() continues them)."""
+        """The in-situ ring sampler (none without [averaging]) at the sample steps up to
+        ``end_step`` that it has not taken: after its last sample (a later run(), a restart:
+        the checkpoint's samples are kept), else from this step on, this one included."""
         if self.rings is None:
             return []
         steps = sample_grid(self.scene, self.dt, end_step)
-        steps = steps[steps > self.step]
+        taken = self.rings.times
+        steps = steps[steps > round(taken[-1] / self.dt) if taken else steps >= self.step]
         return [RingSamples(At(steps), self.rings, self.out_dir)]
 
     def advance_steps(self, n: int) -> None:

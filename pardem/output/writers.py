@@ -117,6 +117,13 @@ def sample_range(start: float, end: float, interval: float, dt: float) -> tuple[
     return every, k0, k1
 
 
+def is_sample_step(step: int, start: float, end: float, interval: float, dt: float) -> bool:
+    """Whether ``step`` is one of ``sample_range``'s steps (``start`` and ``end`` included):
+    the test offline averaging applies to each snapshot, the set the in-situ sampler takes."""
+    every, k0, k1 = sample_range(start, end, interval, dt)
+    return step % every == 0 and k0 <= step // every <= k1
+
+
 def sample_steps(start: float, end: float, interval: float, dt: float,
                  last_step: int) -> np.ndarray:
     """The steps of ``sample_range`` up to ``last_step``: evenly spaced samples that coincide

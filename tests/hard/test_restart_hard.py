@@ -1,5 +1,6 @@
 """Restarts that change the output settings or find the output folder damaged (issue 51: H1,
-L3): nothing written before the checkpoint is lost, and the indexes name the files on disk."""
+M1, L3): nothing written before the checkpoint is lost, the indexes name the files on disk,
+and the ring averages continue as if the run had not stopped."""
 
 import shutil
 import xml.etree.ElementTree as ET
@@ -63,6 +64,35 @@ def test_a_restart_with_another_snapshot_interval_keeps_every_earlier_snapshot(
             np.testing.assert_array_equal(s["position"], kept[s["step"]])
     names = sorted(p.name for p in (out / "snapshots").iterdir())
     assert names == [f"{i:06d}.h5" for i in range(len(want))]  # a series without holes
+
+
+def test_averaging_from_t0_restarts_and_offline_takes_the_same_samples(tmp_path):
+    """M1: [averaging] start = 0. The in-situ samples are t = 0, 0.01, ..., 0.1 (start and
+    end included, as the restart check and offline averaging count them); a run cut at 0.05 s
+    and restarted (kill -9 or not, the checkpoint is the same) is accepted and writes the
+    uninterrupted run's rings.h5; offline averaging of the snapshots (taken at the sample
+    times) gives the same samples."""
+    from averaging.io import read_rings
+    from averaging.offline import average_run
+
+    avg = {"start": 0.0, "end": 0.6, "sample_interval": 0.01}
+    ref = Simulation(cell(averaging=avg), out_dir=tmp_path / "ref")
+    ref.run(end=0.1, progress=False)
+    live = read_rings(tmp_path / "ref")
+    assert live["times"].tolist() == centis(*range(11))
+    cut = Simulation(cell(averaging=avg), out_dir=tmp_path / "cut")
+    cut.run(end=0.05, progress=False)
+    again = Simulation(cell(averaging=avg), out_dir=tmp_path / "cut",
+                       restart=tmp_path / "cut")
+    again.run(end=0.1, progress=False)
+    continued = read_rings(tmp_path / "cut")
+    for key in live:
+        np.testing.assert_array_equal(continued[key], live[key], key)
+    offline = average_run(tmp_path / "ref")
+    assert offline.times == live["times"].tolist()
+    sums = np.array(offline.samples).reshape(live["sums"].shape)
+    scale = np.abs(live["sums"]).max(axis=(0, 1))
+    assert np.all(np.abs(sums - live["sums"]) <= 1e-12 * scale)
 
 
 def test_a_restart_after_the_snapshots_were_deleted_indexes_only_existing_files(tmp_path):
