@@ -128,16 +128,19 @@ def problems(out_dir: Path, kept: list[int]) -> list[str]:
         if not text.endswith(_TAIL):
             found.append(f"{path.name} was cut short")
         if gone:
-            found.append(f"{path.name} named {len(gone)} snapshot files that are not in "
-                         f"{FOLDER}/ ({_span(gone)})")
+            found.append(f"{path.name} named {_files(gone)} that "
+                         f"{'is' if len(gone) == 1 else 'are'} not in {FOLDER}/")
         if left_out:
-            found.append(f"{path.name} left out {len(left_out)} of the snapshot files "
-                         f"({_span(left_out)})")
+            found.append(f"{path.name} left out {_files(left_out)}")
     return found
 
 
-def _span(indexes: list[int]) -> str:
-    return file_name(indexes[0]) + (f" to {file_name(indexes[-1])}" if len(indexes) > 1 else "")
+def _files(indexes: list[int]) -> str:
+    """"3 snapshot files (000004.h5 to 000006.h5)", for the log."""
+    if len(indexes) == 1:
+        return f"1 snapshot file ({file_name(indexes[0])})"
+    return (f"{len(indexes)} snapshot files ({file_name(indexes[0])} to "
+            f"{file_name(indexes[-1])})")
 
 
 def _kept(path: Path, kind: str, index: int) -> str:

@@ -109,7 +109,8 @@ def test_a_restart_after_the_snapshots_were_deleted_indexes_only_existing_files(
     for item in contacts.iter("DataItem"):
         assert (out / item.text.split(":")[0]).exists(), item.text
     log = (out / "log.txt").read_text()
-    assert "particles.xdmf named 11 snapshot files that are not in snapshots/" in log
+    assert ("particles.xdmf named 11 snapshot files (000000.h5 to 000010.h5) that are not "
+            "in snapshots/" in log)
 
 
 def test_a_restart_after_the_index_was_cut_short_indexes_every_snapshot(tmp_path):
