@@ -16,7 +16,7 @@ import numpy as np
 from pardem.output.averages import ring_width as default_ring_width
 from pardem.output.snapshots import read_snapshots
 from pardem.scene import SceneError, load_scene
-from pardem.output.writers import sample_range
+from pardem.output.writers import is_sample_step, sample_range
 from pardem.schema import ring_width_problem
 from pardem.timestep import resolve_dt
 
@@ -43,11 +43,12 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
     weighting = weighting or (cfg.weighting if cfg else "slice")
     displacement = displacement or (cfg.displacement if cfg else "spring")
     dt = resolve_dt(scene)
-    every, k0, k1 = sample_range(start, end, scene.output.snapshot_interval, dt)
+    interval = scene.output.snapshot_interval
+    every = sample_range(start, end, interval, dt)[0]
     avg = None
     for snap in read_snapshots(run_dir):
         step = snap["step"]
-        inside = (step % every == 0 and k0 * every <= step <= k1 * every if math.isfinite(end)
+        inside = (is_sample_step(step, start, end, interval, dt) if math.isfinite(end)
                   else step >= start / dt - every / 2)
         if not inside:
             continue

@@ -29,6 +29,7 @@ from .contact.model import history_columns, law_params, options_for
 from .output.progress import (breakdown, end_progress, log_line, progress_line, show_progress,
                               start_notes)
 from .output.restart import gather_state, restore
+from .output.series import continue_series
 from .output.snapshots import write_snapshot
 from .output.checkpoint import save_checkpoint
 from .output.folder import FolderLock, claim, lock_unchanged
@@ -119,12 +120,15 @@ class Simulation(StateViews):
         # the in-situ averager ([averaging] table; None without), kept across run() calls
         self.rings = make_averager(scene, self._free_radii, self.decomp)
         history, recorded = None, None
+        self._series = None  # the snapshot numbering (output/series.py), from the first run
+        self._end_step = None  # the checkpoint's step if its snapshot is an end snapshot
         if restart is None:  # this rank's rows only, built or read
             self.ps, n_owned, n = rank_share(init, self.decomp, self.hist)
         else:
             got = restore(restart, init, scene, self.dt, self.history_columns, self.decomp,
                           self.log)
-            self.ps, n_owned, n, self.clock.step[0], history, recorded, averages = got
+            self.ps, n_owned, n, self.clock.step[0], history, recorded, averages, end = got
+            self._end_step = self.step if end else None
             resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
         self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
         # run files present when the folder was claimed (checked at the first run only)
@@ -268,14 +272,18 @@ class Simulation(StateViews):
         out = self.scene.output
         root = self.decomp.rank == 0
         writers = self._ring_writers(end_step)
+        for w in writers:  # a sample at the start step (t = 0 with start = 0) is one too
+            if w.trigger.due(self.step):
+                self._timed(w.stage, w.write, self)
         if self.out_dir is not None:
-            snapshots = Snapshots(Every(round(out.snapshot_interval / self.dt)))
+            snapshots = Snapshots(Every(self.snapshot_period))
             writers += [snapshots, Checkpoints(Every(round(out.checkpoint_interval / self.dt)))]
             if root:
                 self.out_dir.mkdir(parents=True, exist_ok=True)
                 write_scene(self.scene, self.out_dir / "scene.toml")
             self.log(f"run {self.scene.info.name}: t = {self.time:.6g} s to {end:.6g} s, "
                      f"{self.n_free} particles, dt = {self.dt:.6g} s, {self.decomp.describe()}")
+            self._snapshot_series()  # the folder's series and indexes, checked before a step
             if snapshots.trigger.due(self.step):
                 self._timed("snapshots", self.write_snapshot)
         if root:  # said, not silently rounded or cut short
@@ -318,12 +326,14 @@ class Simulation(StateViews):
             raise stopped
 
     def _ring_writers(self, end_step: int) -> list:
-        """The in-situ ring sampler (none without [averaging]) at the sample steps after this
-        one, up to ``end_step``; its samples so far are kept (a later run() continues them)."""
+        """The in-situ ring sampler (none without [averaging]) at the sample steps up to
+        ``end_step`` that it has not taken: after its last sample (a later run(), a restart:
+        the checkpoint's samples are kept), else from this step on, this one included."""
         if self.rings is None:
             return []
         steps = sample_grid(self.scene, self.dt, end_step)
-        steps = steps[steps > self.step]
+        taken = self.rings.times
+        steps = steps[steps > round(taken[-1] / self.dt) if taken else steps >= self.step]
         return [RingSamples(At(steps), self.rings, self.out_dir)]
 
     def advance_steps(self, n: int) -> None:
@@ -379,15 +389,37 @@ class Simulation(StateViews):
                 "the last checkpoint is kept")
 
     # -- output --------------------------------------------------------------------------------
-    def write_snapshot(self) -> None:
-        every = max(1, int(round(self.scene.output.snapshot_interval / self.dt)))
+    @property
+    def snapshot_period(self) -> int:
+        """Steps between snapshots ([output] snapshot_interval, rounded to whole steps)."""
+        return max(1, int(round(self.scene.output.snapshot_interval / self.dt)))
+
+    @property
+    def end_snapshot(self) -> bool:
+        """Whether the last snapshot is this state's end snapshot, off the snapshot grid: a
+        continued run replaces it with its next one (checkpoints keep this)."""
+        if self._series is None:
+            return self._end_step == self.step
+        return self._series.ends_at(self.step)
+
+    def _snapshot_series(self):
+        """The series of snapshot files this run continues (collective, once)."""
+        if self._series is None:
+            self._series = self.decomp.bcast_call(continue_series, self.out_dir, self.step,
+                                                  self.snapshot_period, self._end_step,
+                                                  self.log)
+        return self._series
+
+    def write_snapshot(self, end: bool = False) -> None:
+        """The current state into the next snapshot file (collective); ``end``: the end of a
+        run off the snapshot grid, a snapshot the next one replaces."""
+        index = self._snapshot_series().take(self.step, end)
         contacts = self.contacts()
         with_rings = self.options.walls and self.scene.output.contacts
         ring = self.ring_contacts() if with_rings else None
         arrays = self._particle_table(contacts)
         if self.decomp.rank == 0:
-            # off-grid (final) states take the next index, which the next run overwrites
-            write_snapshot(self.out_dir, -(-self.step // every), self.time, self.step, arrays,
+            write_snapshot(self.out_dir, index, self.time, self.step, arrays,
                            contacts if self.scene.output.contacts else None, ring)
 
     def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:

@@ -66,7 +66,8 @@ def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
              "ring_angle": sim.prm.rings.omega_in * sim.clock_time,
              "fingerprint": sim.scene.fingerprint(), "n_free": sim.n_free, "ranks": d.size,
              "scene_physics": json.dumps(sim.scene.physics(), sort_keys=True),
-             "history_columns": ",".join(sim.history_columns)}
+             "history_columns": ",".join(sim.history_columns),
+             "end_snapshot": int(sim.end_snapshot)}
     if sim.rings is not None:
         rings, layout = checkpoint_part(sim.rings, sim.scene)
         arrays.update(rings)
@@ -82,8 +83,10 @@ class Restored(NamedTuple):
     capacity), how many rows are free and owned and how many there are, the step to continue
     from, the history of the pairs that touch its rows (lo, hi, rows with the run's columns;
     None without history), the recorded forces ``(lo, hi, [m,3] pair forces, gids, [k,3] ring
-    forces of those gids)``, and the ring samples (averages.ARRAYS and the attribute
-    ``rings_layout``, where the checkpoint has them; for ``averages.resume``)."""
+    forces of those gids)``, the ring samples (averages.ARRAYS and the attribute
+    ``rings_layout``, where the checkpoint has them; for ``averages.resume``), and whether the
+    snapshot of its state is an end snapshot off the grid (``series.py``; False in files of
+    pardem before it said)."""
 
     ps: Particles
     n_owned: int
@@ -92,6 +95,7 @@ class Restored(NamedTuple):
     history: tuple | None
     forces: tuple
     averages: dict
+    end_snapshot: bool
 
 
 def restore(path, init, scene, dt: float, columns: tuple[str, ...], decomp, log) -> Restored:
@@ -116,7 +120,7 @@ def restore(path, init, scene, dt: float, columns: tuple[str, ...], decomp, log)
     if message is not None:
         raise SceneError(message)
     return Restored(ps, n_owned, idx.size, head["step"], history if columns else None, forces,
-                    head["averages"])
+                    head["averages"], head["end_snapshot"])
 
 
 def _head(path, scene, dt: float, init, columns: tuple[str, ...]) -> dict:
@@ -150,7 +154,8 @@ def _head(path, scene, dt: float, init, columns: tuple[str, ...]) -> dict:
         no_eta = ("eta_x" in columns and "eta_x" not in written
                   and (arrays["pair_hist"].shape[0] or arrays["hist_wall"].shape[0]) > 0)
         return {"file": checkpoint_file(path), "step": int(attrs["step"]), "x_free": x_free,
-                "averages": averages, "no_eta": no_eta}
+                "averages": averages, "no_eta": no_eta,
+                "end_snapshot": bool(attrs.get("end_snapshot", False))}
 
 
 def _read_share(path, ps, idx: np.ndarray, columns: tuple[str, ...]):

@@ -2,8 +2,9 @@
 ``particles.xdmf`` and ``contacts.xdmf`` that ParaView, pyvista and meshio open (``xdmf.py``).
 
 Stage: output (rank 0). Layout of ``snapshots/NNNNNN.h5`` (NNNNNN = 0, 1, ...: the snapshot's
-index on the run's snapshot grid; all SI units; particle rows sorted by id; 2D vectors are stored
-with a third component z = 0, as ParaView wants; ``read_snapshots`` drops it):
+place in the folder's series, ``series.py``; all SI units; particle rows sorted by id; 2D
+vectors are stored with a third component z = 0, as ParaView wants; ``read_snapshots`` drops
+it):
 
     /                  attrs: format = "pardem-snapshot", version = 3, time (s), step
         topology [N,1] int32 0..N-1: the Polyvertex connectivity for N particles

@@ -62,7 +62,8 @@ class Snapshots(Writer):
     it is off the snapshot grid by more than 1 % of the period. A snapshot interval that is not
     a whole number of steps puts the grid's last step a few steps from the end (couette_quick:
     one); a second snapshot that close would show the same state twice, and the checkpoint
-    holds the exact end state."""
+    holds the exact end state. An end snapshot stands in for the next grid point: a continued
+    run's next snapshot replaces it (output/series.py)."""
 
     stage = "snapshots"
 
@@ -72,7 +73,7 @@ class Snapshots(Writer):
     def close(self, sim) -> None:
         period = self.trigger.period
         if sim.step % period > period // 100:
-            sim.write_snapshot()
+            sim.write_snapshot(end=True)
 
 
 class Checkpoints(Writer):
@@ -114,6 +115,13 @@ def sample_range(start: float, end: float, interval: float, dt: float) -> tuple[
     k0 = int(round(start / (every * dt)))
     k1 = int(round(end / (every * dt))) if math.isfinite(end) else k0 - 1
     return every, k0, k1
+
+
+def is_sample_step(step: int, start: float, end: float, interval: float, dt: float) -> bool:
+    """Whether ``step`` is one of ``sample_range``'s steps (``start`` and ``end`` included):
+    the test offline averaging applies to each snapshot, the set the in-situ sampler takes."""
+    every, k0, k1 = sample_range(start, end, interval, dt)
+    return step % every == 0 and k0 <= step // every <= k1
 
 
 def sample_steps(start: float, end: float, interval: float, dt: float,

@@ -6,7 +6,8 @@ stay in that snapshot's file ``snapshots/NNNNNN.h5`` (no data is copied; paths a
 the index, so a run folder can be moved). Each snapshot appends its grid to the index: the
 earlier grids are kept as text (grids of the same or a later index, left by a run that a
 restart continues, are dropped), and the index is written under a temporary name and renamed,
-so it only ever lists complete snapshots. ``rebuild`` recreates both from the files.
+so it only ever lists complete snapshots. ``rebuild`` recreates both from the files, which a
+restart does when ``problems`` finds them out of step with the files (deleted or cut short).
 
 Reader notes that shaped the layout:
 - ParaView's default XDMF reader (Xdmf3) shows 0 cells for a Polyvertex topology without a
@@ -87,11 +88,14 @@ def truncate(out_dir: Path, index: int) -> None:
                 _write_atomic(path, text)
 
 
-def rebuild(out_dir: Path) -> None:
-    """Both indexes from every snapshot file in ``out_dir`` (reads each file; for folders
-    whose index was lost)."""
+def rebuild(out_dir: Path, upto: int | None = None) -> None:
+    """Both indexes from every snapshot file in ``out_dir`` (of index ``upto`` or less; reads
+    each file; for folders whose index was lost or damaged); an index without grids is
+    removed, so none names a file that is gone."""
     particles, contacts = [], []
     for index in snapshot_indexes(out_dir):
+        if upto is not None and index > upto:
+            break
         with h5py.File(out_dir / FOLDER / file_name(index), "r") as h5:
             time = float(h5.attrs["time"])
             parts = _shapes(h5)
@@ -101,6 +105,42 @@ def rebuild(out_dir: Path) -> None:
     for kind, grids in ((PARTICLES, particles), (CONTACTS, contacts)):
         if grids:
             _write_atomic(out_dir / f"{kind}.xdmf", _HEAD.format(kind) + "".join(grids) + _TAIL)
+        else:
+            (out_dir / f"{kind}.xdmf").unlink(missing_ok=True)
+
+
+def problems(out_dir: Path, kept: list[int]) -> list[str]:
+    """What is wrong with the indexes of a folder whose series is the files ``kept`` (more
+    files, a tail past a restart's checkpoint, may follow): an index cut short, naming files
+    that are gone, or (particles.xdmf) leaving some of ``kept`` out."""
+    on_disk = set(snapshot_indexes(out_dir))
+    found = []
+    for kind in (PARTICLES, CONTACTS):
+        path = out_dir / f"{kind}.xdmf"
+        if not path.exists():
+            if kind == PARTICLES and kept:
+                found.append(f"{path.name} was missing")
+            continue
+        text = path.read_text(errors="replace")
+        listed = [i for i, _ in _grids(text, kind)]
+        gone = [i for i in listed if i not in on_disk]
+        left_out = sorted(set(kept) - set(listed)) if kind == PARTICLES else []
+        if not text.endswith(_TAIL):
+            found.append(f"{path.name} was cut short")
+        if gone:
+            found.append(f"{path.name} named {_files(gone)} that "
+                         f"{'is' if len(gone) == 1 else 'are'} not in {FOLDER}/")
+        if left_out:
+            found.append(f"{path.name} left out {_files(left_out)}")
+    return found
+
+
+def _files(indexes: list[int]) -> str:
+    """"3 snapshot files (000004.h5 to 000006.h5)", for the log."""
+    if len(indexes) == 1:
+        return f"1 snapshot file ({file_name(indexes[0])})"
+    return (f"{len(indexes)} snapshot files ({file_name(indexes[0])} to "
+            f"{file_name(indexes[-1])})")
 
 
 def _kept(path: Path, kind: str, index: int) -> str:
