@@ -8,36 +8,25 @@ Stage: averaging output (rank 0). Every file is written under a temporary name a
 
 from __future__ import annotations
 
-import errno
 import os
-import shutil
 from pathlib import Path
 
 import h5py
 import numpy as np
+
+from pardem.output.atomic import size_of, writing
 
 from .fields import COLUMNS, FIELD_UNITS, UNITS
 from .mesh import write_rings_vtu
 
 
 def write_rings(out_dir: Path, avg) -> None:
-    """The files of a RingAverager ``avg`` into out_dir. Refused before writing (OSError
-    ENOSPC naming rings.h5) when the disk has less free space than the files need: h5py
-    writing into a full disk floods the terminal and can crash the interpreter; a failed
-    write leaves no temporary file."""
+    """The files of a RingAverager ``avg`` into out_dir (rings.h5 through
+    pardem.output.atomic: refused before h5py writes when there is no room)."""
     f = avg.fields()
     sums = np.array(avg.samples)
-    need = 2 * (sums.nbytes + sum(np.asarray(v).nbytes for v in f.values())) + 2**20
-    if shutil.disk_usage(out_dir).free < need:
-        raise OSError(errno.ENOSPC, f"No space left on device (rings need ~{need / 1e6:.1f} "
-                                    "MB)", str(out_dir / "rings.h5"))
-    tmp = out_dir / "rings.h5.tmp"
-    try:
+    with writing(out_dir / "rings.h5", size_of(f, {"sums": sums})) as tmp:
         _write_h5(tmp, avg, f, sums)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    os.replace(tmp, out_dir / "rings.h5")
     keys = [k for k in f if np.ndim(f[k]) == 1]  # per-ring columns (fit scalars: h5 only)
     header = ",".join(f"{k} [{FIELD_UNITS.get(k.removesuffix('_err'), '')}]" for k in keys)
     tmp = out_dir / "rings.csv.tmp"

@@ -160,10 +160,13 @@ def main(argv: list[str] | None = None) -> int:
         # a full disk, a quota, or a file-size limit (ulimit -f): the same for the user
         full = isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
         if full:  # checkpoints go to a temporary name first: the last one is whole
+            last = (f"the last complete checkpoint is {out / 'checkpoint.h5'}"
+                    if (out / "checkpoint.h5").exists() else "no checkpoint was written yet")
+            room = ("raise the file-size limit (ulimit -f)" if e.errno == errno.EFBIG
+                    else "free space")
             sys.stderr.write(f"pardem: error: rank {rank}: {e.strerror} while writing "
-                             f"{e.filename or 'the output'}; the last complete checkpoint is "
-                             f"{out / 'checkpoint.h5'}: free space and continue with --restart "
-                             f"{out}\n")
+                             f"{e.filename or 'the output'}; {last}: {room} and continue "
+                             f"with --restart {out}\n")
         if comm is not None:
             import signal
             import traceback

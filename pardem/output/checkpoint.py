@@ -26,6 +26,7 @@ import h5py
 import numpy as np
 
 from ..scene import SceneError
+from .atomic import size_of, writing
 
 ARRAYS = ("gid", "kind", "x", "v", "theta", "omega", "f", "tau", "radius", "mass", "phi0", "e0",
           "hist_wall")
@@ -33,26 +34,9 @@ PAIRS = ("pair_lo", "pair_hi", "pair_hist", "force_lo", "force_hi", "pair_force"
 VERSION = 2
 
 
-@contextmanager
-def writing(path: Path):
-    """Write ``path`` through ``path.tmp``, renamed at the end: a failed write removes the
-    temporary file and its OSError names ``path`` (h5py's errors name no file, so a full
-    disk's message could not say what was being written)."""
-    tmp = path.with_name(path.name + ".tmp")
-    try:
-        yield tmp
-    except OSError as e:
-        tmp.unlink(missing_ok=True)
-        raise OSError(e.errno, e.strerror or str(e), str(path)) from e
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
-    os.replace(tmp, path)
-
-
 def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
                     attrs: dict[str, object]) -> None:
-    with writing(Path(path)) as tmp, h5py.File(tmp, "w") as h5:
+    with writing(Path(path), size_of(arrays)) as tmp, h5py.File(tmp, "w") as h5:
         h5.attrs["format"] = "pardem-checkpoint"
         h5.attrs["version"] = VERSION
         for k, v in attrs.items():

@@ -46,6 +46,7 @@ import h5py
 import numpy as np
 
 from . import xdmf
+from .atomic import size_of, writing
 from .xdmf import snapshot_indexes
 
 FOLDER = xdmf.FOLDER
@@ -75,8 +76,8 @@ def write_snapshot(out_dir: str | os.PathLike, index: int, time: float, step: in
     for stale in folder.glob("*.tmp"):  # left by a killed writer
         stale.unlink()
     path = folder / xdmf.file_name(index)
-    tmp = path.with_name(path.name + ".tmp")
-    with h5py.File(tmp, "w") as h5:
+    with writing(path, size_of(particles, contacts, ring_contacts)) as tmp, \
+            h5py.File(tmp, "w") as h5:
         h5.attrs.update({"format": FORMAT, "version": VERSION, "time": time, "step": step})
         n = particles["id"].size
         h5.create_dataset("topology", data=np.arange(n, dtype=np.int32).reshape(n, 1))
@@ -86,7 +87,6 @@ def write_snapshot(out_dir: str | os.PathLike, index: int, time: float, step: in
             links = _write_table(h5.create_group("contacts"), {**contacts, "cells": cells})
         if ring_contacts is not None:
             _write_table(h5.create_group("ring_contacts"), ring_contacts)
-    os.replace(tmp, path)
     if any(i < index for i in stored) and not (out_dir / f"{xdmf.PARTICLES}.xdmf").exists():
         xdmf.rebuild(out_dir)  # an index lost (deleted by hand): rebuilt from the files
         return
