@@ -1,5 +1,5 @@
 """Benchmark: steady throughput of Couette cells of several sizes on 1 and 2 ranks, all in one
-invocation (the table N x ranks of docs/scaling.md).
+invocation (the throughput table of docs/scaling.md, from results/scaling/throughput.csv).
 
     python run_scripts/scale_table.py [--scenes couette_B.toml couette_B_30k.toml ...]
                                       [--at 2.5 1.2 ...] [--checkpoints DIR] [--ranks 1 2]

@@ -1,5 +1,6 @@
-"""The manual: it builds without warnings, its input reference is the scene schema's, and the
-examples it points to are valid scenes."""
+"""The manual: it builds without warnings, its input reference is the scene schema's, the tables
+of its scaling page are rendered from the committed measurements, and the examples it points to
+are valid scenes."""
 
 import subprocess
 import sys
@@ -10,6 +11,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "run_scripts"))
 
+import scaling_tables  # noqa: E402
 from input_reference import PAGE, render  # noqa: E402
 
 from pardem.check import describe  # noqa: E402
@@ -18,6 +20,12 @@ from pardem.scene import load_scene  # noqa: E402
 
 def test_input_reference_is_generated_from_the_current_schema():
     assert PAGE.read_text() == render(), "run: python run_scripts/input_reference.py"
+
+
+def test_scaling_tables_are_generated_from_the_committed_results():
+    page = scaling_tables.PAGE
+    assert page.read_text(encoding="utf-8") == scaling_tables.render(), \
+        "run: python run_scripts/scaling_tables.py"
 
 
 def test_every_key_the_validator_accepts_is_in_the_input_reference():
