@@ -17,7 +17,7 @@ Writes docs/roughness.md (these sections, then the layout study of roughness_stu
 from __future__ import annotations
 
 import argparse
-import math
+import dataclasses
 import sys
 from concurrent.futures import ThreadPoolExecutor
 from pathlib import Path
@@ -25,9 +25,11 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "run_scripts"))
 
-import roughness_study as rs  # noqa: E402
+import roughness_study  # noqa: E402
+import study_runs as rs  # noqa: E402  (the runs and their tables)
+from averaging.report import PAPER  # noqa: E402
 
-TARGET = rs.PAPER["B"]["v0"]
+TARGET = PAPER["B"]["v0"]
 WALL_DISKS = 319  # v-bar_wall = 0.0047 with d_w = 2.5 mm (SPEC §2)
 START = {93: "both-7mm-B", 160: "split-B"}  # finished layout runs that start the bracket
 MAX_NEW_VALUES = 4
@@ -161,7 +163,7 @@ def calibrate(args) -> int | None:
         print(f"[calibration] {why}", flush=True)
         if chosen is not None:
             return chosen
-        todo = [(f"{cal_name(n)}-s{s}", rs.scene_for("B", cal_name(n), s, walls=nin_walls(n)))
+        todo = [(f"{cal_name(n)}-s{s}", rs.scene_for("B", cal_name(n), s, nin_walls(n)))
                 for s in rs.SEEDS if not (rs.TABLES / f"{cal_name(n)}-s{s}.json").exists()]
         run_all(todo, args)
         write_doc()
@@ -172,7 +174,7 @@ def calibrate(args) -> int | None:
 
 def predictions(n: int, args) -> None:
     run_all([(f"{cal_name(n, sim)}-s{s}", rs.scene_for(sim, cal_name(n, sim), s,
-                                                     walls=nin_walls(n)))
+                                                     nin_walls(n)))
              for s in rs.SEEDS for sim in ("A", "C")], args)
 
 
@@ -181,10 +183,10 @@ def regime(n: int, args) -> None:
     for key, (_, changes) in REGIME.items():
         species = changes.get("species")
         plain = {k: v for k, v in changes.items() if k != "species"}
-        scene = rs.scene_for("B", f"regime-{key}", 1, walls=nin_walls(n), **plain)
+        scene = rs.scene_for("B", f"regime-{key}", 1, nin_walls(n), **plain)
         if species:
-            scene = rs.dataclasses.replace(scene, species=tuple(
-                rs.dataclasses.replace(sp, **c) for sp, c in zip(scene.species, species)))
+            scene = dataclasses.replace(scene, species=tuple(
+                dataclasses.replace(sp, **c) for sp, c in zip(scene.species, species)))
         jobs.append((f"regime-{key}-N{n}", scene))
     run_all(jobs, args)
 
@@ -247,14 +249,14 @@ def prediction_lines(n: int) -> list[str]:
                        ("fit_v0", "v₀ log fit"), ("fit_s", "s log fit")):
         out.append(f"| {label} | " + " | ".join(rs.fmt(r, key) for r in groups.values()) + " |")
     out.append("| the paper's v₀ / s | " + " | ".join(
-        f"{rs.PAPER[s]['v0']} / {rs.PAPER[s]['s']}" for s in groups) + " |")
+        f"{PAPER[s]['v0']} / {PAPER[s]['s']}" for s in groups) + " |")
     out.append("| seeds finished | " + " | ".join(str(len(r)) for r in groups.values()) + " |")
     return out + [""]
 
 
 def write_doc() -> None:
-    lines = rs.report_lines()
-    head, rest = lines[:rs.HEADER_LINES], lines[rs.HEADER_LINES:]
+    lines = roughness_study.report_lines()
+    head, rest = lines[:roughness_study.HEADER_LINES], lines[roughness_study.HEADER_LINES:]
     text = "\n".join(head + calibration_lines() + rest) + "\n"
     tmp = rs.DOCS / "roughness.md.tmp"
     tmp.write_text(text)
