@@ -101,6 +101,12 @@ def resume(avg, scene, dt: float, step: int, saved: dict, path, log) -> None:
         return  # no samples before the checkpoint: nothing to continue, any layout will do
     theirs, ours = json.loads(saved["rings_layout"]), layout(avg, scene)
     for key, value in ours.items():
+        if theirs.get(key) != value and key == "columns":
+            raise SceneError(
+                f"--restart {path}: the checkpoint's {len(saved['rings_times'])} ring samples "
+                "hold other sums than this pardem version averages (written by another "
+                "version); continue without them by setting [averaging] start after the "
+                "checkpoint, or average the snapshots offline (pardem average)")
         if theirs.get(key) != value:
             raise SceneError(
                 f"--restart {path}: the checkpoint's {len(saved['rings_times'])} ring samples "

@@ -78,7 +78,7 @@ def written_by_pardem(out_dir: Path, present: set[str]) -> set[str]:
     every run file of an earlier version's run folder (LEGACY_SIGNS); never a symlink or a
     mount point, which pardem does not make."""
     manifest = out_dir / MANIFEST
-    if manifest.exists():
+    if manifest.is_file():
         ours = set(manifest.read_text(encoding="utf-8", errors="replace").split())
     elif any(name in present for name in LEGACY_SIGNS) or _pardem_scene(out_dir / "scene.toml"):
         ours = set(RUN_FILES)
