@@ -98,6 +98,9 @@ def _pardem_scene(path: Path) -> bool:
 
 def record_claim(out_dir: Path) -> None:
     """Write the manifest: every name a run in ``out_dir`` may write (atomically)."""
+    if (out_dir / MANIFEST).is_dir():
+        raise SceneError(f"--out {out_dir}: {MANIFEST} is a folder; pardem keeps the names of "
+                         "a run's files in a file of that name: remove or rename the folder")
     tmp = out_dir / (MANIFEST + ".tmp")
     tmp.write_text("\n".join(RUN_FILES) + "\n", encoding="utf-8")
     os.replace(tmp, out_dir / MANIFEST)
