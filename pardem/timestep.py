@@ -2,8 +2,9 @@
 contact.model.contact_time). The default step is t_c(smallest pair) / dt_per_contact, shortened
 by at most 1 % so that a whole number of steps fills a power of ten of a second (``time_quantum``):
 output asked for at multiples of it lands at exactly the times the scene names. A step above
-t_c/5 is refused. A run's clock is the step count times ``resolve_step``'s exact fraction of a
-second, so that 0.15 s prints as 0.15.
+``stability_limit`` is refused: t_c/5, or less where a mode of the densest packing the effects
+enable would grow (``contact_modes``). A run's clock is the step count times
+``resolve_step``'s exact fraction of a second, so that 0.15 s prints as 0.15.
 
 The linear spring resolves a contact in time independently of the impact speed, but the overlap
 grows with it: a disk hit head-on by a wall moving at v overlaps it by up to v/omega_0 (omega_0
@@ -124,10 +125,30 @@ def check_free_speeds(scene: Scene, dt: float) -> None:
             f"disk between two steps; at most {0.5 * p.diameter[i] / dt:.3g} m/s at this dt")
 
 
-STEPS_PER_MODE = 5.0
-"""The step may not exceed (pi/omega)/5 of the stiffest enabled contact mode: five steps per
-half period (velocity Verlet itself turns unstable at omega dt = 2, i.e. 1.6 steps per half
-period, for one contact; many contacts on a disk raise the stiffest frequency of the packing)."""
+STEPS_PER_CONTACT = 5.0
+"""Resolution: at least five steps per contact time t_c of the lightest pair. Fewer steps leave
+a collision to two or three force samples, and the energy of an elastic gas drifts although
+no mode is unstable (docs/accuracy.md, "Stability limit")."""
+
+PACKING_CONTACTS = 6
+"""Contacts of a disk in the densest packing of equal disks (hexagonal): the stiffest modes of
+any packing are bounded by those of this one (Rayleigh quotient; exact for the hexagonal
+packing, see ``contact_modes``)."""
+
+
+def mode_step_limit(w_verlet2: float, w_explicit2: float, c: float) -> float:
+    """The largest stable step (s) of one mode x'' = -w_v^2 x - w_e^2 xi - c x' under pardem's
+    velocity Verlet: x from the half-step velocity (symplectic), the damping c (1/s) and the
+    spring xi (incremented by the velocity, xi' = x') from the velocity predicted at the end
+    of the step. Its amplification matrix gets the eigenvalue -1 where (w_v^2 + 2 w_e^2) dt^2
+    + 4 c dt = 4, and no other boundary is crossed first (checked against its spectral radius
+    in tests/hard/test_stability_hard.py), so dt* = 2 (sqrt(c^2 + W^2) - c)/W^2 with W^2 =
+    w_v^2 + 2 w_e^2: 2/w for Verlet's spring, sqrt(2)/w for an explicitly incremented one
+    (an extra instability: half the stiffness is enough), 1/c for damping alone."""
+    w2 = w_verlet2 + 2.0 * w_explicit2
+    if w2 <= 0.0:
+        return 1.0 / c if c > 0 else math.inf
+    return 2.0 * (math.sqrt(c * c + w2) - c) / w2  # no cancellation: c^2 << W^2 in practice
 
 
 def _pair_kinds(scene: Scene) -> list[tuple[float, float, int]]:
@@ -140,47 +161,75 @@ def _pair_kinds(scene: Scene) -> list[tuple[float, float, int]]:
     return [(0.5 * s.diameter, s.mass, s.count) for s in scene.species if s.count > 0]
 
 
+def _rolling_pair(scene: Scene, kinds: list[tuple[float, float, int]]) -> float:
+    """omega^2 (1/s^2) of the stiffest rolling pair over k_r: a'^2 (1/I_i + 1/I_j) with the
+    reduced radius a' = a_i a_j/(a_i + a_j) and I = m a^2/2."""
+    if len(kinds) > 64:  # many kinds of free disk: a cruder bound, a'^2 (...) <= 2/min(m)
+        return 2.0 / min(m for _, m, _ in kinds)
+    return max((((ai * aj / (ai + aj)) ** 2) * 2.0 * (1 / (mi * ai**2) + 1 / (mj * aj**2))
+                for i, (ai, mi, ni) in enumerate(kinds)
+                for j, (aj, mj, _) in enumerate(kinds) if i != j or ni >= 2), default=0.0)
+
+
 def contact_modes(scene: Scene) -> list[tuple[str, float]]:
-    """(what, half period pi/omega in s) of each contact mode the scene's effects enable, for
-    the pair that makes it stiffest. The normal spring's is the damped t_c of the lightest pair.
-    A sticking tangential spring k_t moves the contact point through both translation and
-    rotation: 1/m_eff = 1/m_i + 1/m_j + a_i^2/I_i + a_j^2/I_j = 3/m_red for disks (I = m a^2/2),
-    1/m_red without rotation. The rolling spring k_r acts on the relative rotation through the
-    reduced radius a' = a_i a_j/(a_i + a_j): omega^2 = k_r a'^2 (1/I_i + 1/I_j); against a flat
-    ring surface 2 k_r/m_i, the stiffest."""
+    """(what, largest admitted step in s) of the resolution rule and of each mode the scene's
+    effects enable. The modes are the stiffest of the densest packing (hexagonal, six contacts
+    per disk) of the lightest disks, m_red the lightest pair's reduced mass; a partner of
+    infinite mass (a ring, a wall disk) gives a contact a smaller omega^2 than a free partner
+    (k/m_i against k/m_red), except the rolling spring on a flat ring surface (below). Each
+    step is ``mode_step_limit`` of the mode:
+
+    translation   every spring that pushes centres: k_n, and the sticking tangential spring
+                  k_t (with or without rotation: it acts on the centres either way), which is
+                  incremented explicitly. Rayleigh: a disk's stiffness sum_c (k_n n n + k_t
+                  t t) has at most 3 (k_n + k_t) with six neighbours 60 degrees apart, and
+                  each partner moves too: omega^2 <= 3 (k_n + k_t)/m_red (the hexagonal
+                  packing's M point attains 3 k_n/m_red exactly), so W^2 = 3 (k_n + 2 k_t)/
+                  m_red; damping 3 (gamma_n + gamma_t)/m_red, which grows with the stiffness:
+                  zeta = 0.75 against the pair's 0.43 for the paper's material.
+    gears         rotation with friction: every disk turning alike, each of the six contacts
+                  slips by 2 a theta: omega^2 = 4 z k_t/m = 12 k_t/m_red, four times the
+                  pair's 3 k_t/m_red; damping 12 gamma_t/m_red. Without rotation this mode
+                  does not exist, and the tangential spring is in ``translation`` only.
+    rolling       the rolling spring on the relative rotation: Rayleigh, each contact adds at
+                  most its pair's k_r a'^2 (1/I_i + 1/I_j) to a disk, six of them; a contact
+                  with a flat ring surface adds 2 k_r/m_i (a' = a_i, the ring does not turn)
+                  and leaves room for four neighbours.
+    """
     c, e = scene.contact, scene.effects
     m_red = smallest_reduced_mass(scene)
-    modes = [("the normal spring k_n (t_c of the lightest pair)", smallest_contact_time(scene))]
-    if e.tangential_friction and c.k_t > 0 and c.mu > 0:  # mu = 0: the spring never sticks
-        share = 3.0 if e.rotation else 1.0
-        what = ("the sticking tangential spring with rotation, omega^2 = 3 k_t/m_red"
-                if e.rotation else "the sticking tangential spring, omega^2 = k_t/m_red")
-        modes.append((what, math.pi / math.sqrt(share * c.k_t / m_red)))
+    t_c = smallest_contact_time(scene)
+    z = PACKING_CONTACTS
+    modes = [(f"a collision's resolution, {STEPS_PER_CONTACT:g} steps per contact time t_c",
+              t_c / STEPS_PER_CONTACT)]
+    friction = e.tangential_friction and c.k_t > 0 and c.mu > 0  # mu = 0: it never sticks
+    gamma_t = c.gamma_t if friction and e.tangential_damping else 0.0
+    gamma_n = c.gamma_n if e.normal_damping else 0.0
+    k_t = c.k_t if friction else 0.0
+    damp = z / 2 * (gamma_n + gamma_t) / m_red
+    what = "the densest packing's translation, omega^2 = 3 k_n/m_red"
+    what += " + 3 k_t/m_red (explicit spring)" if friction else ""
+    what += f", damped by {z // 2} gamma/m_red" if damp > 0 else ""
+    modes.append((what, mode_step_limit(z / 2 * c.k_n / m_red, z / 2 * k_t / m_red, damp)))
+    if friction and e.rotation:
+        modes.append(("the densest packing's disks turning alike (gears), omega^2 = 12 k_t/m_red"
+                      " (explicit spring)",
+                      mode_step_limit(0.0, 2 * z * k_t / m_red, 2 * z * gamma_t / m_red)))
     if e.rolling_resistance and e.rotation and c.k_r > 0:
         kinds = _pair_kinds(scene)
-        lightest = min(m for _, m, _ in kinds)
-        # against a flat ring surface a' = a_i and the ring does not turn back: 2 k_r/m_i,
-        # which also bounds every pair (a'^2 (1/I_i + 1/I_j) <= 2/min(m_i, m_j))
-        if scene.geometry is not None:
-            w2 = 2.0 * c.k_r / lightest
-        elif len(kinds) > 64:  # many kinds of free disk: a cruder bound, 2/m_red
-            w2 = 2.0 * c.k_r / m_red
-        else:
-            w2 = max((c.k_r * (ai * aj / (ai + aj)) ** 2 * 2.0 * (1 / (mi * ai**2)
-                                                                 + 1 / (mj * aj**2))
-                      for i, (ai, mi, ni) in enumerate(kinds)
-                      for j, (aj, mj, _) in enumerate(kinds) if i != j or ni >= 2), default=0.0)
-        if w2 > 0:
-            modes.append(("the rolling spring, omega^2 = k_r a'^2 (1/I_i + 1/I_j)",
-                          math.pi / math.sqrt(w2)))
+        pair = _rolling_pair(scene, kinds)
+        w2 = z * pair
+        if scene.geometry is not None:  # a disk on a ring surface, four neighbours beside it
+            w2 = max(w2, 2.0 / min(m for _, m, _ in kinds) + (z - 2) * pair)
+        modes.append(("the rolling spring, omega^2 = 6 k_r a'^2 (1/I_i + 1/I_j) (explicit "
+                      "spring)", mode_step_limit(0.0, c.k_r * w2, 0.0)))
     return modes
 
 
 def stability_limit(scene: Scene) -> tuple[float, str]:
-    """The largest admitted step (s), (pi/omega)/STEPS_PER_MODE of the stiffest enabled mode,
-    and that mode."""
-    what, half = min(contact_modes(scene), key=lambda m: m[1])
-    return half / STEPS_PER_MODE, what
+    """The largest admitted step (s), the smallest of ``contact_modes``, and its mode."""
+    what, step = min(contact_modes(scene), key=lambda m: m[1])
+    return step, what
 
 
 QUANTUM_STEPS = 100
@@ -231,10 +280,9 @@ def resolve_step(scene: Scene) -> Fraction:
     "auto" the time quantum over the fewest whole steps no longer than t_c / dt_per_contact, so
     that output at any multiple of the quantum lands on a step and its time prints exactly.
 
-    Raises SceneError when dt exceeds ``stability_limit`` (five steps per half period of the
-    stiffest enabled contact mode: for frictional disks the sticking tangential spring with
-    rotation, 3 k_t against k_n) or when a ring moves too fast for the contact law
-    (``check_wall_speeds``).
+    Raises SceneError when dt exceeds ``stability_limit`` (t_c/5, or the largest stable step of
+    the stiffest mode of the densest packing: for the paper's material its damped translation,
+    t_c/11) or when a ring moves too fast for the contact law (``check_wall_speeds``).
     """
     check_wall_speeds(scene)
     t_c = smallest_contact_time(scene)
@@ -251,10 +299,9 @@ def resolve_step(scene: Scene) -> Fraction:
         key = "dt" if scene.time.dt is not None else "dt_per_contact"
         given = f"{dt:.6g}" if key == "dt" else f"{scene.time.dt_per_contact:g} (dt = {dt:.4g} s)"
         raise SceneError(
-            f"[time] {key} = {given}: dt exceeds the stability limit {limit:.4g} s = "
-            f"(pi/omega)/{STEPS_PER_MODE:g} of the stiffest contact mode, {what} (pi/omega = "
-            f"{STEPS_PER_MODE * limit:.4g} s); use dt <= {limit:.4g} s, i.e. dt_per_contact >= "
-            f"{t_c / limit:.3g} (t_c = {t_c:.4g} s)")
+            f"[time] {key} = {given}: dt exceeds the stability limit {limit:.4g} s = t_c/"
+            f"{t_c / limit:.3g}, set by {what}; use dt <= {limit:.4g} s, i.e. dt_per_contact "
+            f">= {t_c / limit:.3g} (t_c = {t_c:.4g} s)")
     return step
 
 
