@@ -7,10 +7,11 @@ enable would grow (``contact_modes``). A run's clock is the step count times
 ``resolve_step``'s exact fraction of a second, so that 0.15 s prints as 0.15.
 
 The linear spring resolves a contact in time independently of the impact speed, but the overlap
-grows with it: a disk hit head-on by a wall moving at v overlaps it by up to v/omega_0 (omega_0
-of the disk against the infinitely massive wall). Ring speeds that would push that beyond
-MAX_IMPACT_OVERLAP of the smallest diameter are refused: disks would pass through each other.
-Units SI: N/m, kg/s, kg, s.
+grows with it: a disk hit head-on at approach speed u overlaps its partner by up to
+u sqrt(m_red/k_n) (m_red = m against an infinitely massive ring). Ring speeds and free disks'
+speeds that would push that beyond MAX_IMPACT_OVERLAP (contact.model.MAX_OVERLAP) of the
+smaller diameter are refused: disks would pass through each other (a run that gets there
+anyway stops, step.py). Units SI: N/m, kg/s, kg, s.
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ from fractions import Fraction
 import numpy as np
 
 from .contact import model
+from .contact.model import MAX_OVERLAP
 from .scene import Scene, SceneError
 
 
@@ -64,7 +66,7 @@ def smallest_contact_time(scene: Scene) -> float:
     return contact_time(c.k_n, gamma, smallest_reduced_mass(scene))
 
 
-MAX_IMPACT_OVERLAP = 0.25  # of the smallest free-particle diameter
+MAX_IMPACT_OVERLAP = MAX_OVERLAP  # of the smaller diameter of a contact
 
 
 def free_disks(scene: Scene) -> list[tuple[float, float]]:
@@ -108,14 +110,67 @@ def check_wall_speeds(scene: Scene) -> None:
                 f"{bound:.4g} {unit}, or a stiffer k_n")
 
 
+def _free_kinds(p) -> tuple[np.ndarray, np.ndarray]:
+    """(diameter m, mass kg) of each distinct kind of free disk in a particles table."""
+    kinds = np.unique(np.column_stack([np.asarray(p.diameter, float),
+                                       np.asarray(p.mass, float)]), axis=0)
+    return kinds[:, 0], kinds[:, 1]
+
+
+def peak_overlap_time(m_red: np.ndarray, k_n: float, gamma_n: float) -> np.ndarray:
+    """delta_max/u (s): the deepest overlap of a head-on collision at approach speed u of the
+    damped spring, u/omega_0 exp(-eta t*) at t* = atan(omega_d/eta)/omega_d (eta = gamma_n/
+    (2 m_red)); sqrt(m_red/k_n) undamped. Underdamped contacts only (resolve_step refuses the
+    others first)."""
+    eta = gamma_n / (2.0 * m_red)
+    w0 = np.sqrt(k_n / m_red)
+    wd = np.sqrt(np.maximum(w0 * w0 - eta * eta, 0.0))
+    return np.exp(-eta * np.arctan2(wd, eta) / np.where(wd > 0, wd, 1.0)) / w0
+
+
+def approach_speed_limit(scene: Scene, dt: float) -> float:
+    """The largest approach speed (m/s) at which two free disks of the scene may meet head on:
+    the overlap then peaks at u sqrt(m_red/k_n) undamped (``peak_overlap_time`` with normal
+    damping), and it may already be u dt deep at the first step that sees the contact, so
+    u (peak_overlap_time + dt) <= MAX_OVERLAP min(d_i, d_j) for the worst pair of kinds
+    (measured on the discrete Verlet collision, the peak stays below this bound at any phase
+    and step up to t_c/3). It also keeps a pair from closing more than MAX_OVERLAP of a
+    diameter in one step, so no pair can pass through another between two steps. With more
+    than 64 kinds a cruder bound: m_red <= m of either disk, min(d) = one of the two
+    diameters, no damping."""
+    d, m = _free_kinds(scene.particles)
+    c = scene.contact
+    gamma = c.gamma_n if scene.effects.normal_damping else 0.0
+    if d.size > 64:
+        worst = np.max((np.sqrt(m / c.k_n) + dt) / d)
+    else:
+        m_red = m[:, None] * m[None, :] / (m[:, None] + m[None, :])
+        worst = np.max((peak_overlap_time(m_red, c.k_n, gamma) + dt)
+                       / np.minimum(d[:, None], d[None, :]))
+    return float(MAX_OVERLAP / worst)
+
+
 def check_free_speeds(scene: Scene, dt: float) -> None:
-    """SceneError if a free disk's surface (velocity plus spin at its rim) would move more than
-    half its diameter in one step: it could pass through a partner between two steps without
-    ever touching it (and speeds like 1e200 m/s overflow the neighbour search)."""
+    """SceneError if two free disks could meet faster than ``approach_speed_limit`` (the two
+    fastest: no approach speed exceeds the sum of theirs), or a disk's surface (velocity plus
+    spin at its rim) would move more than half its diameter in one step (and speeds like
+    1e200 m/s overflow the neighbour search)."""
     p = scene.particles
     if p is None:
         return
-    speed = np.hypot(p.vx, p.vy) + np.abs(p.omega) * 0.5 * p.diameter
+    v = np.hypot(p.vx, p.vy)
+    if v.size >= 2:
+        i, j = (int(k) for k in np.argsort(-v, kind="stable")[:2])
+        u, limit = float(v[i] + v[j]), approach_speed_limit(scene, dt)
+        if u > limit:
+            raise SceneError(
+                f"[[particles]] #{i} and #{j} move at {v[i]:.3g} and {v[j]:.3g} m/s: head on "
+                f"they would meet at {u:.3g} m/s and overlap by up to "
+                f"{100 * MAX_OVERLAP * u / limit:.3g} % of the smaller diameter, beyond the "
+                f"{100 * MAX_OVERLAP:.0f} % the contact law represents (they could pass "
+                f"through each other); at dt = {dt:.4g} s and k_n = {scene.contact.k_n:g} N/m "
+                f"disks may approach at up to {limit:.3g} m/s (two at +-{limit / 2:.3g} m/s)")
+    speed = v + np.abs(p.omega) * 0.5 * p.diameter
     per_step = speed * dt / p.diameter
     if np.any(per_step > 0.5):
         i = int(np.argmax(per_step))
@@ -282,7 +337,8 @@ def resolve_step(scene: Scene) -> Fraction:
 
     Raises SceneError when dt exceeds ``stability_limit`` (t_c/5, or the largest stable step of
     the stiffest mode of the densest packing: for the paper's material its damped translation,
-    t_c/11) or when a ring moves too fast for the contact law (``check_wall_speeds``).
+    t_c/11), when a ring moves too fast for the contact law (``check_wall_speeds``) or free
+    disks would meet too fast (``check_free_speeds``).
     """
     check_wall_speeds(scene)
     t_c = smallest_contact_time(scene)

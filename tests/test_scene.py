@@ -646,19 +646,28 @@ def test_overlap_check_with_a_few_much_larger_disks_equals_brute_force():
 
 
 def test_a_free_disk_that_would_skip_a_partner_in_one_step_is_refused():
-    """Half a diameter per step at most: dt = 10 ms / 230 = 4.348e-5 s for two small disks
-    (t_c/50 = 4.353e-5 s shortened to divide 10 ms), so 0.5 x 7.42e-3 / 4.348e-5 = 85.3 m/s
-    (velocity plus spin at the rim); vx = 1e200 overflowed the neighbour search. Huge masses
-    at small speeds stay allowed (kinematic test setups)."""
+    """Two free disks may meet at most at 0.25 d/(delta_max/u + dt) = 4.543 m/s, delta_max/u =
+    0.3648 ms the damped collision's deepest overlap per approach speed (sqrt(m_red/k_n) = 0.6249
+    ms times exp(-eta t*) = 0.584), dt = 10 ms / 230 = 4.348e-5 s (t_c/50 shortened to divide
+    10 ms): the overlap then stays under 25 % of d (tests/hard/test_stability_hard.py runs it);
+    the two fastest disks' speeds are summed. A disk's rim (velocity plus spin) may move at
+    most half its diameter per step: 0.5 x 7.42e-3 / 4.348e-5 = 85.3 m/s; vx = 1e200
+    overflowed the neighbour search. Huge masses only at tiny speeds (1e9 kg: 1.6e-6 m/s at
+    dt = 1e-5 s, the damping negligible)."""
     d = free_dict()
-    ok = scene_from_dict(mutate(d, "particles.1.vx", -85.0))
+    ok = scene_from_dict(mutate(d, "particles.1.vx", -4.45))  # 4.5 m/s with the other's 0.05
     assert 0.99 * 2.1765e-3 / 50 <= resolve_dt(ok) <= 2.1765e-3 / 50
-    for path, value, speed in (("particles.1.vx", 1e200, "1e+200"),
-                               ("particles.1.vx", -85.4, "85.4"),
-                               ("particles.1.omega", 23000.0, "85.4")):  # 0.05 + 23000 a
-        message = (rf"\[\[particles\]\] #1: moves at {re.escape(speed)} m/s .*it could pass "
-                   r"through another disk between two steps; at most 85.3 m/s at this dt")
+    for value, speed in ((-4.5, "4.5"), (1e200, "1e+200")):
+        message = (rf"\[\[particles\]\] #1 and #0 move at {re.escape(speed)} and 0.05 m/s: "
+                   r"head on they would meet at .* disks may approach at up to 4.54 m/s")
         with pytest.raises(SceneError, match=message):
-            resolve_dt(scene_from_dict(mutate(d, path, value)))
+            resolve_dt(scene_from_dict(mutate(d, "particles.1.vx", value)))
+    message = (r"\[\[particles\]\] #1: moves at 85.4 m/s .*it could pass through another disk "
+               r"between two steps; at most 85.3 m/s at this dt")
+    with pytest.raises(SceneError, match=message):  # 0.05 + 23000 a
+        resolve_dt(scene_from_dict(mutate(d, "particles.1.omega", 23000.0)))
     heavy = mutate(mutate(d, "particles.0.mass", 1e9), "particles.1.mass", 1e9)
-    assert resolve_dt(scene_from_dict(mutate(heavy, "time.dt", 1e-5))) == 1e-5
+    slow = mutate(mutate(heavy, "particles.0.vx", 7e-7), "particles.1.vx", -7e-7)
+    assert resolve_dt(scene_from_dict(mutate(slow, "time.dt", 1e-5))) == 1e-5
+    with pytest.raises(SceneError, match="disks may approach at up to 1.56e-06 m/s"):
+        resolve_dt(scene_from_dict(mutate(heavy, "time.dt", 1e-5)))
