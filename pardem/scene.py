@@ -189,7 +189,7 @@ class TimeCfg:
     densest packing the effects enable (translation, with the tangential spring and the
     damping; disks turning alike with friction and rotation; the rolling spring): t_c/11 for
     the paper's material, t_c/9.9 without friction (docs/accuracy.md, "Stability limit");
-    ``pardem check`` prints the limit."""
+    ``pardem check`` prints the limit. A run that would take more than 1e12 steps is refused."""
 
     dt: float | None = key(None, "s", ">0")
     dt_per_contact: float = key(50.0, "", ">=5 <=1e6")

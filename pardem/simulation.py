@@ -46,7 +46,7 @@ from .scene import Scene, SceneError, write_scene
 from .state import Params, new_clock, new_pairs
 from .step import (BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP, StepOptions,
                    make_stepper)
-from .timestep import resolve_step
+from .timestep import check_step_count, resolve_step
 from .views import StateViews
 from .walls import rings_of, wall_layout
 
@@ -263,6 +263,8 @@ class Simulation(StateViews):
             self.folder_lock.release()
 
     def _run(self, end: float | None, progress: bool) -> None:
+        if end is not None:  # the scene's own end was checked with its step
+            check_step_count(self.scene, self.dt, end, "--end", self.time)
         end = self.scene.time.end if end is None else end
         end_step = int(round(end / self.dt))
         if end_step < self.step:

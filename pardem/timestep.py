@@ -330,6 +330,33 @@ def off_step_text(scene: Scene, step: Fraction) -> str | None:
     return f"{', '.join(off)} not a whole number of steps of {float(step):.6g} s" if off else None
 
 
+MAX_STEPS = 1e12
+"""More steps than any run can take: at 25 M particle-steps/s (check.REFERENCE_RATE) 1e12 steps
+of a single disk take 11 hours, of the paper's 2,939 disks 4 years. A count beyond it comes
+from a typo (k_n = 1e300 gives dt = 7e-154 s) and would otherwise only show as a run that
+never ends."""
+
+
+def check_step_count(scene: Scene, dt: float, end: float, key: str, start: float = 0.0) -> None:
+    """SceneError if running from ``start`` to ``end`` s (given as ``key``) takes more than
+    MAX_STEPS steps of dt s, naming the count and what sets dt."""
+    steps = (end - start) / dt
+    if not steps > MAX_STEPS:
+        return
+    if scene.time.dt is not None:
+        source = f"[time] dt = {scene.time.dt:g} s"
+    else:
+        c = scene.contact
+        source = (f"t_c/{scene.time.dt_per_contact:g} ([time] dt_per_contact) with the contact "
+                  f"time t_c = {smallest_contact_time(scene):.3g} s of [contact] k_n = {c.k_n:g} "
+                  f"N/m and the lightest pair's reduced mass {smallest_reduced_mass(scene):.3g} kg")
+    raise SceneError(
+        f"{key} = {end:g} s is {steps:.3g} steps of dt = {dt:.3g} s, more than {MAX_STEPS:.0e} "
+        f"({steps / 25e6 / 3.156e7:.3g} years even for one disk at 25 M particle-steps/s): dt is "
+        f"{source}; shorten the run, or check the key that sets dt (a stiffer k_n than the "
+        "material needs only shortens the step)")
+
+
 def resolve_step(scene: Scene) -> Fraction:
     """The run's time step as an exact fraction of a second: [time] dt as written, or with dt =
     "auto" the time quantum over the fewest whole steps no longer than t_c / dt_per_contact, so
@@ -358,6 +385,7 @@ def resolve_step(scene: Scene) -> Fraction:
             f"[time] {key} = {given}: dt exceeds the stability limit {limit:.4g} s = t_c/"
             f"{t_c / limit:.3g}, set by {what}; use dt <= {limit:.4g} s, i.e. dt_per_contact "
             f">= {t_c / limit:.3g} (t_c = {t_c:.4g} s)")
+    check_step_count(scene, dt, scene.time.end, "[time] end")
     return step
 
 

@@ -1,5 +1,5 @@
 """Hard cases of the time step (issue 51): the stability limit measured on a dense packing
-(H2), disks that meet too fast for the contact law (H3)."""
+(H2), disks that meet too fast for the contact law (H3), an absurd number of steps (L1)."""
 
 import math
 from unittest import mock
@@ -11,7 +11,7 @@ from helpers import couette_scene, free_scene
 from mpi_helpers import MPI_DIR, run_mpi
 
 from pardem import cli
-from pardem.scene import write_scene
+from pardem.scene import SceneError, write_scene
 from pardem.simulation import Simulation
 from pardem.testing import D_S, M_S, dense_cell, stability_drift
 from pardem.timestep import mode_step_limit, resolve_dt, stability_limit
@@ -198,3 +198,41 @@ def test_the_overlap_guard_leaves_a_violent_but_resolved_impact_alone():
     sim = Simulation(free_scene(ps, effects={"normal_damping": True}))
     sim.run(end=0.01, progress=False)
     assert sim.clock.deep[0] < 0
+
+
+# ----------------------------------------------------------------- L1: absurd step counts
+
+@pytest.mark.parametrize("table,key,value,named", [
+    ("contact", "k_n", "1e300", "[contact] k_n = 1e+300 N/m"),
+    ("time", "dt", "1e-20", "[time] dt = 1e-20 s"),
+    ("time", "end", "1e300", "[time] end = 1e+300 s")])
+def test_an_absurd_step_count_is_refused_in_check_and_run(tmp_path, capsys, table, key, value,
+                                                          named):
+    """Issue 51, L1: k_n = 1e300 was accepted (dt = 7e-154 s; check printed a 152-digit step
+    count). More than 1e12 steps is refused by check and run alike, naming the count and the
+    key that makes it (k_n through t_c: pi sqrt(m_red/k_n)/50 = 7.35e-154 s)."""
+    toml = fast_pair(tmp_path, 0.0, f"[{table}]\n{key} = {value}\n")
+    for command in (["check", str(toml)], ["run", str(toml), "--out", str(tmp_path / "o")]):
+        assert cli.main(command) == 2
+        err = capsys.readouterr().err
+        assert "more than 1e+12" in err and named in err, err
+        assert "steps of dt = " in err
+    if key == "k_n":  # t_c/50, shortened by at most 1 % to divide a power of ten
+        dt = float(err.split("steps of dt = ")[1].split(" s")[0])
+        assert 0.99 <= dt / (math.pi * math.sqrt(M_RED / 1e300) / 50) <= 1
+
+
+def test_an_absurd_end_on_the_command_line_is_refused(tmp_path, capsys):
+    """--end 1e300 at dt = 1/23000 s: 2.3e304 steps, refused before the first step."""
+    toml = fast_pair(tmp_path, 0.0)
+    assert cli.main(["run", str(toml), "--out", str(tmp_path / "o"), "--end", "1e300"]) == 2
+    err = capsys.readouterr().err
+    assert "--end = 1e+300 s is 2.3e+304 steps" in err, err
+
+
+def test_the_step_count_bound():
+    """The paper's B to 239 s is 5.5e6 steps: far below the bound; 1e4 s at 1 ns is 1e13."""
+    assert resolve_dt(couette_scene()) > 0
+    with pytest.raises(SceneError, match="more than 1e"):
+        resolve_dt(free_scene([{"x": 0.0, "y": 0.0, "diameter": D_S, "mass": M_S}],
+                              time={"dt": 1e-9, "end": 1e4}))
