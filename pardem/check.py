@@ -41,8 +41,8 @@ def describe(scene: Scene) -> str:
              f"# particles (free): {n}",
              f"# contact time of the lightest pair t_c = {t_c:.6g} s; dt = {dt:.6g} s "
              f"= t_c / {t_c / dt:.4g}",
-             f"# stability limit dt <= {limit:.4g} s = t_c / {t_c / limit:.3g} (a fifth of the "
-             f"half period of the stiffest mode, {mode}): dt is {limit / dt:.3g} x below it"]
+             f"# stability limit dt <= {limit:.4g} s = t_c / {t_c / limit:.3g} (set by {mode}): "
+             f"dt is {limit / dt:.3g} x below it"]
     lines.append(_output_times(scene, step))
     nu = volume_fraction(scene)
     if nu is not None:

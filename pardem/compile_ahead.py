@@ -86,13 +86,15 @@ def _groups(sim, history) -> list[list]:
     positions = types.Array(f8, 2, "A")  # owned rows moved in place or gathered: either layout
     plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
     after_migration, early, late = _first_step(sim, state, f8)
-    work = nb.typeof(ForceWork(np.zeros(1), np.zeros((2, 1), np.int32), np.zeros(2, np.int64)))
+    work = nb.typeof(ForceWork(np.zeros(1), np.zeros((2, 1), np.int32), np.zeros(2, np.int64),
+                               np.zeros(3)))
     return [
         _migration(tuple(nb.typeof(a) for a in exchange)) + after_migration,
         early + [(_refresh_plan, plan), (build_lists, lists),
          (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
                                    work, record)),
-         (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record)),
+         (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record,
+                                  nb.typeof(np.zeros(3)))),
          (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))]
         + late,
     ]

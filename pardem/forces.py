@@ -14,13 +14,14 @@ number of ranks, and a pair seen by two ranks gets the same bits on both.
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
-from .contact.model import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX,
-                            W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ,
+from .contact.model import (BATCH, MAX_OVERLAP, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY,
+                            W_FN, W_FTX, W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ,
                             history_width, lane_contact, surface_contact, work_size)
 from .jit import INLINE, JIT
 from .walls import outer_radius, ring_surface
@@ -63,11 +64,15 @@ class ForceWork(NamedTuple):
     unknown. Every other pair's history is +0.0, so the next selecting call zeroes only those
     of these it leaves out, instead of writing every listed pair's history (at 300k disks on
     one rank, ~22 MB per step that the caches cannot hold). A new list needs a new ForceWork:
-    the selection is kept as indices into the list."""
+    the selection is kept as indices into the list.
+    deep [3] float: the deepest contact of the last call beyond MAX_OVERLAP of its smaller
+    diameter: (pair index, or the particle's index for a ring surface; -1: none), the overlap
+    over that diameter, the ring (0: a pair, 1 inner, 2 outer)."""
 
     rows: np.ndarray
     live: np.ndarray
     n_live: np.ndarray
+    deep: np.ndarray
 
 
 @nb.njit(**JIT)
@@ -77,7 +82,45 @@ def new_work(o, capacity):
     rows = np.zeros(work_size(o))
     rows[rows.size - 1] = 1.0
     rows[rows.size - 2] = RECHECK
-    return ForceWork(rows, np.empty((2, capacity), np.int32), np.array([-1, 0]))
+    return ForceWork(rows, np.empty((2, capacity), np.int32), np.array([-1, 0]),
+                     np.array([-1.0, 0.0, 0.0]))
+
+
+@nb.njit(**INLINE)
+def too_deep(work, ln):
+    """Whether lane ln's disks may overlap by more than MAX_OVERLAP of the smaller free
+    diameter: centres closer than a_i + a_j - 2 MAX_OVERLAP min(a_i, a_j) (no square root, so
+    that the law's loop stays vectorised; note_deep decides with the free disks' diameter)."""
+    td_ai = work[W_AI * BATCH + ln]
+    td_aj = work[W_AJ * BATCH + ln]
+    td_dx = work[W_DX * BATCH + ln]
+    td_dy = work[W_DY * BATCH + ln]
+    td_lim = td_ai + td_aj - 2.0 * MAX_OVERLAP * min(td_ai, td_aj)
+    return td_dx * td_dx + td_dy * td_dy < td_lim * td_lim
+
+
+@nb.njit(**INLINE)
+def note_deep(deep, index, delta, diameter, ring):
+    """Keep the deepest overlap delta (m) beyond MAX_OVERLAP of ``diameter`` (m) in
+    ForceWork.deep: rare, so the pair loops only flag it (W_ACT = 2) and it is measured here."""
+    nd_ratio = delta / diameter
+    if nd_ratio > MAX_OVERLAP and nd_ratio > deep[1]:
+        deep[0] = index
+        deep[1] = nd_ratio
+        deep[2] = ring
+
+
+@nb.njit(**INLINE)
+def lane_overlap(work, ln, kind_i, kind_j):
+    """(overlap m, smaller diameter of its free disks m) of lane ln: a wall disk (kind != 0)
+    cannot move through a free disk, and the rings' 2.5 mm disks would make a compressed
+    packing's 8 % of a free diameter look like a third of theirs."""
+    lo_ai = work[W_AI * BATCH + ln]
+    lo_aj = work[W_AJ * BATCH + ln]
+    lo_d = math.sqrt(work[W_DX * BATCH + ln] ** 2 + work[W_DY * BATCH + ln] ** 2)
+    lo_fi = lo_ai if kind_i == 0 else math.inf
+    lo_fj = lo_aj if kind_j == 0 else math.inf
+    return lo_ai + lo_aj - lo_d, 2.0 * min(lo_fi, lo_fj)
 
 
 @nb.njit(**JIT)
@@ -95,6 +138,8 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
     loop asks for them at the last step of a call only (stored every step, they cost ~8 % of
     the step: 24 bytes per pair of extra memory traffic)."""
     sf, st = ps.f.reshape(-1), ps.tau
+    work.deep[0] = -1.0
+    work.deep[1] = 0.0
     for k in range(2 * n_loc):
         sf[k] = 0.0
     for k in range(n_loc):
@@ -107,17 +152,17 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
         work.n_live[0] = -1  # every pair's history written: the next selection zeroes all
         if calls >= RECHECK:
             rows[rows.size - 1] = every_pair(ps, pairs, prm, reach, o, rotation, rows, record,
-                                             True)
+                                             True, work.deep)
             rows[rows.size - 2] = 0.0
         else:
-            every_pair(ps, pairs, prm, reach, o, rotation, rows, record, False)
+            every_pair(ps, pairs, prm, reach, o, rotation, rows, record, False, work.deep)
             rows[rows.size - 2] = calls + 1.0
     if walls:
-        ring_contacts(ps, pairs, prm, t, reach, o, rotation, record)
+        ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, work.deep)
 
 
 @nb.njit(**JIT)
-def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure):
+def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure, deep):
     """Every listed pair through three loops per batch:
       gather   copy each pair's inputs into the work rows (unsigned indices: numba then adds
                no negative-index wrap-around, which spilled registers here);
@@ -135,7 +180,9 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure):
     the listed pairs with a normal force (else 0): counted here rather than by a call of
     selected_pairs, which costs a dense packing more than the count (B at 2.5 s: 2-3 % of the
     step, with a selecting call every 100 and at every build), and apart from the scatter,
-    whose serial chain an added count lengthened by ~7 %."""
+    whose serial chain an added count lengthened by ~7 %. ``deep``: ForceWork.deep, where a
+    pair overlapping beyond MAX_OVERLAP is noted (flagged in the law's loop, measured in the
+    scatter)."""
     n_hist = history_width(o)
     hw = np.uint64(n_hist)
     gx, gv, gw, ga = ps.x.reshape(-1), ps.v_pred.reshape(-1), ps.w_pred, ps.radius
@@ -165,7 +212,7 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
             touching, _ = lane_contact(work, ln, reach, prm.law, o, True)  # nothing deferred
-            work[W_ACT * BATCH + ln] = 1.0 if touching else 0.0
+            work[W_ACT * BATCH + ln] = (2.0 if too_deep(work, ln) else 1.0) if touching else 0.0
         if measure:
             for ln in range(m):
                 n_force += 1 if work[W_FN * BATCH + ln] != 0.0 else 0
@@ -194,6 +241,9 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure):
                 acc_t = st[cur]
             if work[W_ACT * BATCH + ln] != 0.0:
                 jj = np.uint64(pj[kk])
+                if work[W_ACT * BATCH + ln] > 1.0:
+                    delta, diameter = lane_overlap(work, ln, ps.kind[ii], ps.kind[jj])
+                    note_deep(deep, float(kk), delta, diameter, 0.0)
                 acc_x += work[W_FX * BATCH + ln]
                 acc_y += work[W_FY * BATCH + ln]
                 sf[jj + jj] -= work[W_FX * BATCH + ln]
@@ -229,6 +279,7 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
     h_in = np.uint64(W_HIST * BATCH)
     h_out = h_in + hw * np.uint64(BATCH)
     h = 0.5 * prm.law.dt if o.damping and o.window else 0.0
+    deep = wk.deep
     queue = np.empty(2 * BATCH, np.int64)  # selected pairs waiting for a batch, in list order
     keep = np.empty(BATCH, np.int64)
     n_pairs = pairs.count[0]
@@ -278,7 +329,7 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
             break
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
             touching, _ = lane_contact(work, ln, reach, prm.law, o, True)  # nothing deferred
-            work[W_ACT * BATCH + ln] = 1.0 if touching else 0.0
+            work[W_ACT * BATCH + ln] = (2.0 if too_deep(work, ln) else 1.0) if touching else 0.0
         cur = np.uint64(pi[queue[0]])
         acc_x = sf[cur + cur]
         acc_y = sf[cur + cur + one]
@@ -303,6 +354,9 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
             n_force += 1 if work[W_FN * BATCH + ln] != 0.0 else 0
             if work[W_ACT * BATCH + ln] != 0.0:
                 jj = np.uint64(pj[kk])
+                if work[W_ACT * BATCH + ln] > 1.0:
+                    delta, diameter = lane_overlap(work, ln, ps.kind[ii], ps.kind[jj])
+                    note_deep(deep, float(kk), delta, diameter, 0.0)
                 acc_x += work[W_FX * BATCH + ln]
                 acc_y += work[W_FY * BATCH + ln]
                 sf[jj + jj] -= work[W_FX * BATCH + ln]
@@ -360,9 +414,10 @@ def zero_pairs(sxi, rfn, rft, start, stop, n_hist, record):
 
 
 @nb.njit(**JIT)
-def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record):
+def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, deep):
     """Contacts of candidate free particles with the two flat ring surfaces (infinitely
-    massive; walls.ring_surface gives the geometry and the surface's motion)."""
+    massive; walls.ring_surface gives the geometry and the surface's motion); an overlap
+    beyond MAX_OVERLAP of the disk's diameter is noted in ``deep`` (ForceWork.deep)."""
     has_hist = history_width(o) > 0
     r_o, r_o_dot = outer_radius(t, prm.rings)
     lim = reach if o.damping and o.window else 0.0
@@ -379,6 +434,8 @@ def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record):
                 pairs.wall_ft[q, 0] = 0.0
                 pairs.wall_ft[q, 1] = 0.0
             continue
+        if delta > 2.0 * MAX_OVERLAP * a:
+            note_deep(deep, float(i), delta, 2.0 * a, float(ring))
         w_i = ps.w_pred[i] if rotation else 0.0
         s = (a * ps.w_pred[i] if rotation else 0.0) + s_j
         fn, ftx, fty, torque = surface_contact(

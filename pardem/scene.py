@@ -185,10 +185,11 @@ class TimeCfg:
     with the damping of a contact that starts or ends within a step weighted by its in-contact
     fraction (default); "verlet-halfstep": plain velocity Verlet with the half-step velocity
     in those forces and no weighting, as in LAMMPS GRANULAR; docs/accuracy.md compares them).
-    Either way dt may not exceed a fifth of the half period pi/omega of the stiffest contact
-    mode the effects enable: the normal spring (t_c/5), the sticking tangential spring with
-    rotation (omega^2 = 3 k_t/m_red: t_c/8.4 for the paper's material), the rolling spring;
-    ``pardem check`` prints the limit."""
+    Either way dt may not exceed t_c/5 nor the largest stable step of the stiffest mode of the
+    densest packing the effects enable (translation, with the tangential spring and the
+    damping; disks turning alike with friction and rotation; the rolling spring): t_c/11 for
+    the paper's material, t_c/9.9 without friction (docs/accuracy.md, "Stability limit");
+    ``pardem check`` prints the limit. A run that would take more than 1e12 steps is refused."""
 
     dt: float | None = key(None, "s", ">0")
     dt_per_contact: float = key(50.0, "", ">=5 <=1e6")

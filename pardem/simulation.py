@@ -11,6 +11,8 @@ rebuilds the neighbour lists when the step loop asks for it, and fires the write
             NEED_REBUILD -> rebuild the lists (under MPI: migrate and select ghosts first
                             when the bodies have moved half the ghost margin), continue
             BAD_PARTICLE -> stop on every rank with the particle's id, time and position
+            TOO_DEEP     -> stop on every rank naming the two particles (or the particle
+                            and the ring), the time and the overlap beyond MAX_OVERLAP
         fire the due writers: ring sample, snapshot, checkpoint; progress line
     close the writers (final snapshot, checkpoint, ring averages)
 """
@@ -25,7 +27,7 @@ import numpy as np
 
 from .compile_ahead import compile_ahead, compile_first
 from .contact.history import carry_history, live_history
-from .contact.model import history_columns, law_params, options_for
+from .contact.model import MAX_OVERLAP, history_columns, law_params, options_for
 from .output.progress import (breakdown, end_progress, log_line, progress_line, show_progress,
                               start_notes)
 from .output.restart import gather_state, restore
@@ -43,8 +45,9 @@ from .rebuild import place_idle_walls, rebuild, rebuild_on_request
 from . import stop
 from .scene import Scene, SceneError, write_scene
 from .state import Params, new_clock, new_pairs
-from .step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, StepOptions, make_stepper
-from .timestep import resolve_step
+from .step import (BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP, StepOptions,
+                   make_stepper)
+from .timestep import check_step_count, resolve_step
 from .views import StateViews
 from .walls import rings_of, wall_layout
 
@@ -264,6 +267,8 @@ class Simulation(StateViews):
             self.folder_lock.release()
 
     def _run(self, end: float | None, progress: bool) -> None:
+        if end is not None:  # the scene's own end was checked with its step
+            check_step_count(self.scene, self.dt, end, "--end", self.time)
         end = self.scene.time.end if end is None else end
         end_step = int(round(end / self.dt))
         if end_step < self.step:
@@ -350,17 +355,38 @@ class Simulation(StateViews):
             if status == NEED_REBUILD:  # every rank returns at the same step (global maxima)
                 rebuild_on_request(self)
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
-            elif status == BAD_PARTICLE:
-                message = self._bad_particle_message(bad) if bad >= 0 else None
-                message = self.decomp.first_message(message)
-                self.log(f"run stopped: {message}")
-                raise SimulationError(message)
+            elif status in (BAD_PARTICLE, TOO_DEEP):
+                self._stop(self._bad_particle_message(bad) if bad >= 0 else None)
             elif status == MPI_FAILED:
                 raise RuntimeError(f"MPI ghost exchange failed on rank {self.decomp.rank} at "
                                    f"step {self.step}")
             else:
+                # an overlap beyond MAX_OVERLAP in the forces of a call's last step: the loop
+                # stops every rank at the next step's ghost refresh, which this call did not
+                # reach (one collective per call)
+                if self.decomp.max(float(self.clock.deep[0] >= 0.0)) > 0.0:
+                    self._stop(None)
                 place_idle_walls(self)
                 return
+
+    def _stop(self, message: str | None) -> None:
+        """Stop every rank with the first rank's message (collective): an overlap beyond
+        MAX_OVERLAP on this rank first (it is why particles go bad), else ``message``."""
+        if self.clock.deep[0] >= 0.0:
+            message = self._too_deep_message()
+        message = self.decomp.first_message(message)
+        self.log(f"run stopped: {message}")
+        raise SimulationError(message)
+
+    def _too_deep_message(self) -> str:
+        t, i, j, ratio = self.clock.deep
+        partner = (f"particle id {int(j)}" if j >= 0 else
+                   f"the {'inner' if j == -1 else 'outer'} ring's surface")
+        return (f"particle id {int(i)} and {partner} overlap by {100 * ratio:.3g} % of the "
+                f"smaller free diameter at t = {t:.6f} s, beyond the {100 * MAX_OVERLAP:.0f} % the "
+                "linear contact law represents (the disks would pass through each other): they "
+                f"met too fast for dt = {self.dt:.4g} s and k_n; lower the speeds or dt, or "
+                "raise [contact] k_n; the last checkpoint is kept")
 
     def _timed(self, stage: str, fn, *args) -> None:
         t0 = time.perf_counter()

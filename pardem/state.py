@@ -133,6 +133,9 @@ class Clock(NamedTuple):
     disp[0] (m): the largest displacement of a free particle since the previous neighbour
     build plus the outer ring's move, over all ranks, at the step that asked for the latest
     build (diagnostics; exchanges are decided from positions, Decomposition.exchange_due).
+    deep (float array [4]): the first overlap beyond contact.model.MAX_OVERLAP on this rank,
+    (t s, gid of i, gid of j or -1/-2 for the inner/outer ring surface, overlap over the
+    smaller diameter); t < 0: none. The step loop stops every rank at the next step.
     """
 
     step: np.ndarray
@@ -145,6 +148,7 @@ class Clock(NamedTuple):
     reach: np.ndarray
     disp: np.ndarray
     step_ref: np.ndarray
+    deep: np.ndarray
 
 
 ROW_ROOM = 1.25
@@ -181,7 +185,7 @@ def new_clock(n_owned: int, n_local: int, r_out0: float) -> Clock:
         n_moving=np.array([n_local], np.int64),
         n_ghost=np.zeros(1, np.int64),
         r_out_ref=np.array([r_out0]), reach=np.zeros(1), disp=np.zeros(1),
-        step_ref=np.zeros(1, np.int64),
+        step_ref=np.zeros(1, np.int64), deep=np.array([-1.0, 0.0, 0.0, 0.0]),
     )
 
 

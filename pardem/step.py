@@ -44,7 +44,7 @@ from .jit import JIT
 from .static import static
 from .parallel.refresh import refresh_ghosts
 
-OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED = 0, 1, 2, 3
+OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED, TOO_DEEP = 0, 1, 2, 3, 4
 FORCES_ONLY = 2  # Clock.phase: the next advance call only computes the forces
 
 
@@ -93,13 +93,17 @@ def make_stepper(opts: StepOptions) -> Stepper:
             if clock.phase[0] == 0:
                 kick(ps, n_owned, h, prm, opts, False)
                 bad, disp, v2 = drift(ps, clock, prm, opts, scratch)
-                # ghosts to t + dt; every rank learns the global maxima (one rank: no-op)
-                err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0], bad >= 0,
-                                                        disp, v2, clock.step[0])
+                # ghosts to t + dt; every rank learns the global maxima (one rank: no-op), and
+                # whether any rank has a bad particle or an overlap beyond MAX_OVERLAP since
+                # the last step: every rank stops at this step
+                deep = clock.deep[0] >= 0.0
+                err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0],
+                                                        bad >= 0 or deep, disp, v2,
+                                                        clock.step[0])
                 if err != 0:
                     return MPI_FAILED, -1
                 if bad_any:
-                    return BAD_PARTICLE, bad
+                    return (TOO_DEEP, -1) if deep else (BAD_PARTICLE, bad)
                 clock.reach[0] = math.sqrt(v2) * prm.dt  # 2 max|v| dt/2
                 # the list must hold every pair within reach of touching: free pairs
                 # 2 max_disp + reach <= skin; a free disk and a wall disk (listed wall_skin
@@ -113,6 +117,13 @@ def make_stepper(opts: StepOptions) -> Stepper:
             record = forces_only or clock.step[0] >= target
             contact_forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], o,
                            opts.rotation, opts.walls, work, record)
+            if work.deep[0] >= 0.0 and clock.deep[0] < 0.0:  # the first: named by gid
+                k = int(work.deep[0])
+                ring = work.deep[2]
+                clock.deep[0] = clock.step[0] * prm.dt
+                clock.deep[1] = ps.gid[pairs.i[k]] if ring == 0.0 else ps.gid[k]
+                clock.deep[2] = ps.gid[pairs.j[k]] if ring == 0.0 else -ring
+                clock.deep[3] = work.deep[1]
             if forces_only:
                 clock.phase[0] = 0
                 return OK, -1

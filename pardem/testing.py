@@ -4,20 +4,24 @@
 Stage: verification. ``two_disks`` sets up the head-on collision of SPEC §3 and ``measure``
 times it: contact start and end are the zero crossings of the overlap, linearly interpolated
 between steps, and the restitution is the ratio of the separation and approach speeds.
-``brute_force_pairs`` is the O(N^2) reference of the neighbour search.
+``brute_force_pairs`` is the O(N^2) reference of the neighbour search. ``dense_cell`` and
+``settled_kinetic_energy`` measure the stability limit (tests/hard/test_stability_hard.py,
+run_scripts/stability_table.py).
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+from fractions import Fraction
+from unittest import mock
 
 import numpy as np
 
 from .scene import scene_from_dict
 from .simulation import Simulation
 from .contact.model import contact_time
-from .timestep import smallest_contact_time
+from .timestep import smallest_contact_time, stability_limit
 
 D_S, M_S = 7.42e-3, 0.275e-3  # the paper's small disks (m, kg)
 
@@ -117,3 +121,57 @@ def brute_force_pairs(x: np.ndarray, radius: np.ndarray, gid: np.ndarray, kind: 
     cut = radius[:, None] + radius[None, :] + skin + wall_skin * walls
     ii, jj = np.nonzero((d < cut) & (gid[:, None] < gid[None, :]))
     return {(int(gid[i]), int(gid[j])) for i, j in zip(ii, jj) if kind[i] == 0 or kind[j] == 0}
+
+
+def dense_cell(effects: dict | None = None, contact: dict | None = None, count: int = 340):
+    """A small, dense Couette cell that is not sheared: ``count`` of the paper's small disks
+    (340: volume fraction 0.835, about four contacts per disk, overlaps up to ~8 % d)
+    compressed from R_o = 0.11 to 0.09 m in 0.1 s around R_i = 0.05 m, then left to settle;
+    ``effects`` and ``contact`` change the defaults."""
+    return scene_from_dict({
+        "scene": {"name": "dense-cell", "kind": "couette", "seed": 3},
+        "geometry": {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
+                     "compression_time": 0.1, "omega_inner": 0.0},
+        "species": [{"name": "small", "diameter": D_S, "mass": M_S, "count": count}],
+        "effects": dict(effects or {}), "contact": dict(contact or {}), "time": {"end": 1.0}})
+
+
+SETTLE_TIMES = tuple(0.3 + 0.01 * k for k in range(11))  # s: 0.2-0.3 s after the compression
+
+
+def settled_kinetic_energy(scene, dt: float, spin: float = 0.0) -> float:
+    """Median kinetic energy (J) of the free disks at SETTLE_TIMES, run at step ``dt`` (s) even
+    beyond the admitted limit (resolve_step is bypassed: this measures where that limit must
+    be). A stable step lets a damped packing come to rest (KE falls by orders of magnitude
+    after the compression); an unstable mode keeps it chattering at the springs' Coulomb
+    limits, or blows it up (``inf``: the watchdog stopped it). The median, because a settling
+    frictionless packing still rearranges now and then. ``spin`` (rad/s): the spread of random
+    spins given to the disks when the compression ends: without friction nothing else turns
+    a disk, and a mode of the rolling springs needs a seed to grow."""
+    from . import simulation
+
+    step = Fraction(repr(float(dt)))
+    scene = dataclasses.replace(scene, time=dataclasses.replace(scene.time, dt=float(step)))
+    with mock.patch.object(simulation, "resolve_step", lambda _: step):
+        sim = Simulation(scene)
+    ke = []
+    try:
+        if spin:
+            sim.run(end=scene.geometry.compression_time, progress=False)
+            rng = np.random.default_rng(1)
+            sim.set_particles(np.arange(sim.n_free), omega=rng.normal(0.0, spin, sim.n_free))
+        for t in SETTLE_TIMES:
+            sim.run(end=t, progress=False)
+            ke.append(sim.kinetic_energy())
+    except simulation.SimulationError:
+        return math.inf
+    return float(np.median(ke))
+
+
+def stability_drift(scene, ratios, spin: float = 0.0) -> tuple[float, float, list[float]]:
+    """``(limit s, KE at t_c/50 J, [KE(ratio x limit) / KE(t_c/50)])`` of ``dense_cell``
+    scene (``settled_kinetic_energy``): how much more the settled packing moves at each
+    multiple of the admitted limit."""
+    limit, _ = stability_limit(scene)
+    ref = settled_kinetic_energy(scene, smallest_contact_time(scene) / 50, spin)
+    return limit, ref, [settled_kinetic_energy(scene, r * limit, spin) / ref for r in ratios]

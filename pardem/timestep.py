@@ -2,14 +2,16 @@
 contact.model.contact_time). The default step is t_c(smallest pair) / dt_per_contact, shortened
 by at most 1 % so that a whole number of steps fills a power of ten of a second (``time_quantum``):
 output asked for at multiples of it lands at exactly the times the scene names. A step above
-t_c/5 is refused. A run's clock is the step count times ``resolve_step``'s exact fraction of a
-second, so that 0.15 s prints as 0.15.
+``stability_limit`` is refused: t_c/5, or less where a mode of the densest packing the effects
+enable would grow (``contact_modes``). A run's clock is the step count times
+``resolve_step``'s exact fraction of a second, so that 0.15 s prints as 0.15.
 
 The linear spring resolves a contact in time independently of the impact speed, but the overlap
-grows with it: a disk hit head-on by a wall moving at v overlaps it by up to v/omega_0 (omega_0
-of the disk against the infinitely massive wall). Ring speeds that would push that beyond
-MAX_IMPACT_OVERLAP of the smallest diameter are refused: disks would pass through each other.
-Units SI: N/m, kg/s, kg, s.
+grows with it: a disk hit head-on at approach speed u overlaps its partner by up to
+u sqrt(m_red/k_n) (m_red = m against an infinitely massive ring). Ring speeds and free disks'
+speeds that would push that beyond MAX_IMPACT_OVERLAP (contact.model.MAX_OVERLAP) of the
+smaller diameter are refused: disks would pass through each other (a run that gets there
+anyway stops, step.py). Units SI: N/m, kg/s, kg, s.
 """
 
 from __future__ import annotations
@@ -20,6 +22,7 @@ from fractions import Fraction
 import numpy as np
 
 from .contact import model
+from .contact.model import MAX_OVERLAP
 from .scene import Scene, SceneError
 
 
@@ -63,7 +66,7 @@ def smallest_contact_time(scene: Scene) -> float:
     return contact_time(c.k_n, gamma, smallest_reduced_mass(scene))
 
 
-MAX_IMPACT_OVERLAP = 0.25  # of the smallest free-particle diameter
+MAX_IMPACT_OVERLAP = MAX_OVERLAP  # of the smaller diameter of a contact
 
 
 def free_disks(scene: Scene) -> list[tuple[float, float]]:
@@ -107,14 +110,67 @@ def check_wall_speeds(scene: Scene) -> None:
                 f"{bound:.4g} {unit}, or a stiffer k_n")
 
 
+def _free_kinds(p) -> tuple[np.ndarray, np.ndarray]:
+    """(diameter m, mass kg) of each distinct kind of free disk in a particles table."""
+    kinds = np.unique(np.column_stack([np.asarray(p.diameter, float),
+                                       np.asarray(p.mass, float)]), axis=0)
+    return kinds[:, 0], kinds[:, 1]
+
+
+def peak_overlap_time(m_red: np.ndarray, k_n: float, gamma_n: float) -> np.ndarray:
+    """delta_max/u (s): the deepest overlap of a head-on collision at approach speed u of the
+    damped spring, u/omega_0 exp(-eta t*) at t* = atan(omega_d/eta)/omega_d (eta = gamma_n/
+    (2 m_red)); sqrt(m_red/k_n) undamped. Underdamped contacts only (resolve_step refuses the
+    others first)."""
+    eta = gamma_n / (2.0 * m_red)
+    w0 = np.sqrt(k_n / m_red)
+    wd = np.sqrt(np.maximum(w0 * w0 - eta * eta, 0.0))
+    return np.exp(-eta * np.arctan2(wd, eta) / np.where(wd > 0, wd, 1.0)) / w0
+
+
+def approach_speed_limit(scene: Scene, dt: float) -> float:
+    """The largest approach speed (m/s) at which two free disks of the scene may meet head on:
+    the overlap then peaks at u sqrt(m_red/k_n) undamped (``peak_overlap_time`` with normal
+    damping), and it may already be u dt deep at the first step that sees the contact, so
+    u (peak_overlap_time + dt) <= MAX_OVERLAP min(d_i, d_j) for the worst pair of kinds
+    (measured on the discrete Verlet collision, the peak stays below this bound at any phase
+    and step up to t_c/3). It also keeps a pair from closing more than MAX_OVERLAP of a
+    diameter in one step, so no pair can pass through another between two steps. With more
+    than 64 kinds a cruder bound: m_red <= m of either disk, min(d) = one of the two
+    diameters, no damping."""
+    d, m = _free_kinds(scene.particles)
+    c = scene.contact
+    gamma = c.gamma_n if scene.effects.normal_damping else 0.0
+    if d.size > 64:
+        worst = np.max((np.sqrt(m / c.k_n) + dt) / d)
+    else:
+        m_red = m[:, None] * m[None, :] / (m[:, None] + m[None, :])
+        worst = np.max((peak_overlap_time(m_red, c.k_n, gamma) + dt)
+                       / np.minimum(d[:, None], d[None, :]))
+    return float(MAX_OVERLAP / worst)
+
+
 def check_free_speeds(scene: Scene, dt: float) -> None:
-    """SceneError if a free disk's surface (velocity plus spin at its rim) would move more than
-    half its diameter in one step: it could pass through a partner between two steps without
-    ever touching it (and speeds like 1e200 m/s overflow the neighbour search)."""
+    """SceneError if two free disks could meet faster than ``approach_speed_limit`` (the two
+    fastest: no approach speed exceeds the sum of theirs), or a disk's surface (velocity plus
+    spin at its rim) would move more than half its diameter in one step (and speeds like
+    1e200 m/s overflow the neighbour search)."""
     p = scene.particles
     if p is None:
         return
-    speed = np.hypot(p.vx, p.vy) + np.abs(p.omega) * 0.5 * p.diameter
+    v = np.hypot(p.vx, p.vy)
+    if v.size >= 2:
+        i, j = (int(k) for k in np.argsort(-v, kind="stable")[:2])
+        u, limit = float(v[i] + v[j]), approach_speed_limit(scene, dt)
+        if u > limit:
+            raise SceneError(
+                f"[[particles]] #{i} and #{j} move at {v[i]:.3g} and {v[j]:.3g} m/s: head on "
+                f"they would meet at {u:.3g} m/s and overlap by up to "
+                f"{100 * MAX_OVERLAP * u / limit:.3g} % of the smaller diameter, beyond the "
+                f"{100 * MAX_OVERLAP:.0f} % the contact law represents (they could pass "
+                f"through each other); at dt = {dt:.4g} s and k_n = {scene.contact.k_n:g} N/m "
+                f"disks may approach at up to {limit:.3g} m/s (two at +-{limit / 2:.3g} m/s)")
+    speed = v + np.abs(p.omega) * 0.5 * p.diameter
     per_step = speed * dt / p.diameter
     if np.any(per_step > 0.5):
         i = int(np.argmax(per_step))
@@ -124,10 +180,30 @@ def check_free_speeds(scene: Scene, dt: float) -> None:
             f"disk between two steps; at most {0.5 * p.diameter[i] / dt:.3g} m/s at this dt")
 
 
-STEPS_PER_MODE = 5.0
-"""The step may not exceed (pi/omega)/5 of the stiffest enabled contact mode: five steps per
-half period (velocity Verlet itself turns unstable at omega dt = 2, i.e. 1.6 steps per half
-period, for one contact; many contacts on a disk raise the stiffest frequency of the packing)."""
+STEPS_PER_CONTACT = 5.0
+"""Resolution: at least five steps per contact time t_c of the lightest pair. Fewer steps leave
+a collision to two or three force samples, and the energy of an elastic gas drifts although
+no mode is unstable (docs/accuracy.md, "Stability limit")."""
+
+PACKING_CONTACTS = 6
+"""Contacts of a disk in the densest packing of equal disks (hexagonal): the stiffest modes of
+any packing are bounded by those of this one (Rayleigh quotient; exact for the hexagonal
+packing, see ``contact_modes``)."""
+
+
+def mode_step_limit(w_verlet2: float, w_explicit2: float, c: float) -> float:
+    """The largest stable step (s) of one mode x'' = -w_v^2 x - w_e^2 xi - c x' under pardem's
+    velocity Verlet: x from the half-step velocity (symplectic), the damping c (1/s) and the
+    spring xi (incremented by the velocity, xi' = x') from the velocity predicted at the end
+    of the step. Its amplification matrix gets the eigenvalue -1 where (w_v^2 + 2 w_e^2) dt^2
+    + 4 c dt = 4, and no other boundary is crossed first (checked against its spectral radius
+    in tests/hard/test_stability_hard.py), so dt* = 2 (sqrt(c^2 + W^2) - c)/W^2 with W^2 =
+    w_v^2 + 2 w_e^2: 2/w for Verlet's spring, sqrt(2)/w for an explicitly incremented one
+    (an extra instability: half the stiffness is enough), 1/c for damping alone."""
+    w2 = w_verlet2 + 2.0 * w_explicit2
+    if w2 <= 0.0:
+        return 1.0 / c if c > 0 else math.inf
+    return 2.0 * (math.sqrt(c * c + w2) - c) / w2  # no cancellation: c^2 << W^2 in practice
 
 
 def _pair_kinds(scene: Scene) -> list[tuple[float, float, int]]:
@@ -140,47 +216,75 @@ def _pair_kinds(scene: Scene) -> list[tuple[float, float, int]]:
     return [(0.5 * s.diameter, s.mass, s.count) for s in scene.species if s.count > 0]
 
 
+def _rolling_pair(scene: Scene, kinds: list[tuple[float, float, int]]) -> float:
+    """omega^2 (1/s^2) of the stiffest rolling pair over k_r: a'^2 (1/I_i + 1/I_j) with the
+    reduced radius a' = a_i a_j/(a_i + a_j) and I = m a^2/2."""
+    if len(kinds) > 64:  # many kinds of free disk: a cruder bound, a'^2 (...) <= 2/min(m)
+        return 2.0 / min(m for _, m, _ in kinds)
+    return max((((ai * aj / (ai + aj)) ** 2) * 2.0 * (1 / (mi * ai**2) + 1 / (mj * aj**2))
+                for i, (ai, mi, ni) in enumerate(kinds)
+                for j, (aj, mj, _) in enumerate(kinds) if i != j or ni >= 2), default=0.0)
+
+
 def contact_modes(scene: Scene) -> list[tuple[str, float]]:
-    """(what, half period pi/omega in s) of each contact mode the scene's effects enable, for
-    the pair that makes it stiffest. The normal spring's is the damped t_c of the lightest pair.
-    A sticking tangential spring k_t moves the contact point through both translation and
-    rotation: 1/m_eff = 1/m_i + 1/m_j + a_i^2/I_i + a_j^2/I_j = 3/m_red for disks (I = m a^2/2),
-    1/m_red without rotation. The rolling spring k_r acts on the relative rotation through the
-    reduced radius a' = a_i a_j/(a_i + a_j): omega^2 = k_r a'^2 (1/I_i + 1/I_j); against a flat
-    ring surface 2 k_r/m_i, the stiffest."""
+    """(what, largest admitted step in s) of the resolution rule and of each mode the scene's
+    effects enable. The modes are the stiffest of the densest packing (hexagonal, six contacts
+    per disk) of the lightest disks, m_red the lightest pair's reduced mass; a partner of
+    infinite mass (a ring, a wall disk) gives a contact a smaller omega^2 than a free partner
+    (k/m_i against k/m_red), except the rolling spring on a flat ring surface (below). Each
+    step is ``mode_step_limit`` of the mode:
+
+    translation   every spring that pushes centres: k_n, and the sticking tangential spring
+                  k_t (with or without rotation: it acts on the centres either way), which is
+                  incremented explicitly. Rayleigh: a disk's stiffness sum_c (k_n n n + k_t
+                  t t) has at most 3 (k_n + k_t) with six neighbours 60 degrees apart, and
+                  each partner moves too: omega^2 <= 3 (k_n + k_t)/m_red (the hexagonal
+                  packing's M point attains 3 k_n/m_red exactly), so W^2 = 3 (k_n + 2 k_t)/
+                  m_red; damping 3 (gamma_n + gamma_t)/m_red, which grows with the stiffness:
+                  zeta = 0.75 against the pair's 0.43 for the paper's material.
+    gears         rotation with friction: every disk turning alike, each of the six contacts
+                  slips by 2 a theta: omega^2 = 4 z k_t/m = 12 k_t/m_red, four times the
+                  pair's 3 k_t/m_red; damping 12 gamma_t/m_red. Without rotation this mode
+                  does not exist, and the tangential spring is in ``translation`` only.
+    rolling       the rolling spring on the relative rotation: Rayleigh, each contact adds at
+                  most its pair's k_r a'^2 (1/I_i + 1/I_j) to a disk, six of them; a contact
+                  with a flat ring surface adds 2 k_r/m_i (a' = a_i, the ring does not turn)
+                  and leaves room for four neighbours.
+    """
     c, e = scene.contact, scene.effects
     m_red = smallest_reduced_mass(scene)
-    modes = [("the normal spring k_n (t_c of the lightest pair)", smallest_contact_time(scene))]
-    if e.tangential_friction and c.k_t > 0 and c.mu > 0:  # mu = 0: the spring never sticks
-        share = 3.0 if e.rotation else 1.0
-        what = ("the sticking tangential spring with rotation, omega^2 = 3 k_t/m_red"
-                if e.rotation else "the sticking tangential spring, omega^2 = k_t/m_red")
-        modes.append((what, math.pi / math.sqrt(share * c.k_t / m_red)))
+    t_c = smallest_contact_time(scene)
+    z = PACKING_CONTACTS
+    modes = [(f"a collision's resolution, {STEPS_PER_CONTACT:g} steps per contact time t_c",
+              t_c / STEPS_PER_CONTACT)]
+    friction = e.tangential_friction and c.k_t > 0 and c.mu > 0  # mu = 0: it never sticks
+    gamma_t = c.gamma_t if friction and e.tangential_damping else 0.0
+    gamma_n = c.gamma_n if e.normal_damping else 0.0
+    k_t = c.k_t if friction else 0.0
+    damp = z / 2 * (gamma_n + gamma_t) / m_red
+    what = "the densest packing's translation, omega^2 = 3 k_n/m_red"
+    what += " + 3 k_t/m_red (explicit spring)" if friction else ""
+    what += f", damped by {z // 2} gamma/m_red" if damp > 0 else ""
+    modes.append((what, mode_step_limit(z / 2 * c.k_n / m_red, z / 2 * k_t / m_red, damp)))
+    if friction and e.rotation:
+        modes.append(("the densest packing's disks turning alike (gears), omega^2 = 12 k_t/m_red"
+                      " (explicit spring)",
+                      mode_step_limit(0.0, 2 * z * k_t / m_red, 2 * z * gamma_t / m_red)))
     if e.rolling_resistance and e.rotation and c.k_r > 0:
         kinds = _pair_kinds(scene)
-        lightest = min(m for _, m, _ in kinds)
-        # against a flat ring surface a' = a_i and the ring does not turn back: 2 k_r/m_i,
-        # which also bounds every pair (a'^2 (1/I_i + 1/I_j) <= 2/min(m_i, m_j))
-        if scene.geometry is not None:
-            w2 = 2.0 * c.k_r / lightest
-        elif len(kinds) > 64:  # many kinds of free disk: a cruder bound, 2/m_red
-            w2 = 2.0 * c.k_r / m_red
-        else:
-            w2 = max((c.k_r * (ai * aj / (ai + aj)) ** 2 * 2.0 * (1 / (mi * ai**2)
-                                                                 + 1 / (mj * aj**2))
-                      for i, (ai, mi, ni) in enumerate(kinds)
-                      for j, (aj, mj, _) in enumerate(kinds) if i != j or ni >= 2), default=0.0)
-        if w2 > 0:
-            modes.append(("the rolling spring, omega^2 = k_r a'^2 (1/I_i + 1/I_j)",
-                          math.pi / math.sqrt(w2)))
+        pair = _rolling_pair(scene, kinds)
+        w2 = z * pair
+        if scene.geometry is not None:  # a disk on a ring surface, four neighbours beside it
+            w2 = max(w2, 2.0 / min(m for _, m, _ in kinds) + (z - 2) * pair)
+        modes.append(("the rolling spring, omega^2 = 6 k_r a'^2 (1/I_i + 1/I_j) (explicit "
+                      "spring)", mode_step_limit(0.0, c.k_r * w2, 0.0)))
     return modes
 
 
 def stability_limit(scene: Scene) -> tuple[float, str]:
-    """The largest admitted step (s), (pi/omega)/STEPS_PER_MODE of the stiffest enabled mode,
-    and that mode."""
-    what, half = min(contact_modes(scene), key=lambda m: m[1])
-    return half / STEPS_PER_MODE, what
+    """The largest admitted step (s), the smallest of ``contact_modes``, and its mode."""
+    what, step = min(contact_modes(scene), key=lambda m: m[1])
+    return step, what
 
 
 QUANTUM_STEPS = 100
@@ -226,15 +330,42 @@ def off_step_text(scene: Scene, step: Fraction) -> str | None:
     return f"{', '.join(off)} not a whole number of steps of {float(step):.6g} s" if off else None
 
 
+MAX_STEPS = 1e12
+"""More steps than any run can take: at 25 M particle-steps/s (check.REFERENCE_RATE) 1e12 steps
+of a single disk take 11 hours, of the paper's 2,939 disks 4 years. A count beyond it comes
+from a typo (k_n = 1e300 gives dt = 7e-154 s) and would otherwise only show as a run that
+never ends."""
+
+
+def check_step_count(scene: Scene, dt: float, end: float, key: str, start: float = 0.0) -> None:
+    """SceneError if running from ``start`` to ``end`` s (given as ``key``) takes more than
+    MAX_STEPS steps of dt s, naming the count and what sets dt."""
+    steps = (end - start) / dt
+    if not steps > MAX_STEPS:
+        return
+    if scene.time.dt is not None:
+        source = f"[time] dt = {scene.time.dt:g} s"
+    else:
+        c = scene.contact
+        source = (f"t_c/{scene.time.dt_per_contact:g} ([time] dt_per_contact) with the contact "
+                  f"time t_c = {smallest_contact_time(scene):.3g} s of [contact] k_n = {c.k_n:g} "
+                  f"N/m and the lightest pair's reduced mass {smallest_reduced_mass(scene):.3g} kg")
+    raise SceneError(
+        f"{key} = {end:g} s is {steps:.3g} steps of dt = {dt:.3g} s, more than {MAX_STEPS:.0e} "
+        f"({steps / 25e6 / 3.156e7:.3g} years even for one disk at 25 M particle-steps/s): dt is "
+        f"{source}; shorten the run, or check the key that sets dt (a stiffer k_n than the "
+        "material needs only shortens the step)")
+
+
 def resolve_step(scene: Scene) -> Fraction:
     """The run's time step as an exact fraction of a second: [time] dt as written, or with dt =
     "auto" the time quantum over the fewest whole steps no longer than t_c / dt_per_contact, so
     that output at any multiple of the quantum lands on a step and its time prints exactly.
 
-    Raises SceneError when dt exceeds ``stability_limit`` (five steps per half period of the
-    stiffest enabled contact mode: for frictional disks the sticking tangential spring with
-    rotation, 3 k_t against k_n) or when a ring moves too fast for the contact law
-    (``check_wall_speeds``).
+    Raises SceneError when dt exceeds ``stability_limit`` (t_c/5, or the largest stable step of
+    the stiffest mode of the densest packing: for the paper's material its damped translation,
+    t_c/11), when a ring moves too fast for the contact law (``check_wall_speeds``) or free
+    disks would meet too fast (``check_free_speeds``).
     """
     check_wall_speeds(scene)
     t_c = smallest_contact_time(scene)
@@ -251,10 +382,10 @@ def resolve_step(scene: Scene) -> Fraction:
         key = "dt" if scene.time.dt is not None else "dt_per_contact"
         given = f"{dt:.6g}" if key == "dt" else f"{scene.time.dt_per_contact:g} (dt = {dt:.4g} s)"
         raise SceneError(
-            f"[time] {key} = {given}: dt exceeds the stability limit {limit:.4g} s = "
-            f"(pi/omega)/{STEPS_PER_MODE:g} of the stiffest contact mode, {what} (pi/omega = "
-            f"{STEPS_PER_MODE * limit:.4g} s); use dt <= {limit:.4g} s, i.e. dt_per_contact >= "
-            f"{t_c / limit:.3g} (t_c = {t_c:.4g} s)")
+            f"[time] {key} = {given}: dt exceeds the stability limit {limit:.4g} s = t_c/"
+            f"{t_c / limit:.3g}, set by {what}; use dt <= {limit:.4g} s, i.e. dt_per_contact "
+            f">= {t_c / limit:.3g} (t_c = {t_c:.4g} s)")
+    check_step_count(scene, dt, scene.time.end, "[time] end")
     return step
 
 

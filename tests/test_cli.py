@@ -214,15 +214,15 @@ def test_a_ring_width_for_more_rings_than_allowed_is_refused_offline(tmp_path, c
 def test_check_prints_the_step_and_the_stability_limit(capsys):
     """pardem check on the paper's B: dt = 10 ms / 230, the 10 ms quantum over the fewest
     steps no longer than t_c/50 (t_c = 2.17654 ms: 229.76 such steps), and the limit set by
-    the sticking tangential spring with rotation, t_c/8.36 (tests/test_scene.py derives
-    0.2603 ms from 3 k_t/m_red)."""
+    the damped translation of the densest packing, t_c/11.1 (tests/test_scene.py derives
+    0.19630 ms)."""
     assert main(["check", str(Path(__file__).parents[1] / "run_scripts" / "couette_B.toml")]) == 0
     out = capsys.readouterr().out
     assert "dt = 4.34783e-05 s = t_c / 50.06" in out
     assert "output at exactly the times named" in out
-    assert ("# stability limit dt <= 0.0002603 s = t_c / 8.36 (a fifth of the half period of "
-            "the stiffest mode, the sticking tangential spring with rotation") in out
-    assert "dt is 5.99 x below it" in out
+    assert ("# stability limit dt <= 0.0001963 s = t_c / 11.1 (set by the densest packing's "
+            "translation") in out
+    assert "dt is 4.51 x below it" in out
 
 
 def test_average_and_plot_of_damaged_output_files_say_so_in_one_line(tmp_path, capsys):

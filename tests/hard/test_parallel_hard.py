@@ -79,14 +79,19 @@ def test_watchdog_names_the_particle_and_keeps_the_last_checkpoint(tmp_path, poi
     partners = set(ids[(ids == gid).any(axis=1)].ravel().tolist())
     if poison == "nan":  # the forces recomputed after the edit carry the NaN to its partners
         sim.set_particles(gid, velocity=(v[0], np.nan))
-    else:  # thrown out through the outer wall, faster than any contact can stop it
-        sim.set_particles(gid, position=(0.085, 0.0), velocity=(300.0, 0.0))
+    else:  # the outermost disk thrown out through the outer wall, faster than any contact
+        # can stop it (moved onto another disk instead, it trips the overlap guard first)
+        s = sim.gathered("position", "kind")
+        free = np.flatnonzero(s["kind"] == 0)
+        gid = int(free[np.argmax(np.hypot(*s["position"][free].T))])
+        x = s["position"][gid]
+        sim.set_particles(gid, velocity=300.0 * x / np.hypot(*x))
         partners = {gid}
     with pytest.raises(SimulationError) as err:
         sim.run(end=0.2, progress=False)
     msg = str(err.value)
     gid = int(msg.split("particle id ")[1].split()[0])
-    assert gid in partners | {17}, (gid, partners)
+    assert gid in partners | {17}, (gid, partners)  # 17: the poisoned one
     assert f"particle id {gid} became invalid at t = " in msg and "position (" in msg
     assert "the last checkpoint is kept" in msg
     t_bad = float(msg.split("invalid at t = ")[1].split(" s")[0])
