@@ -11,8 +11,6 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import numpy as np
-
 from pardem.output.averages import ring_width as default_ring_width
 from pardem.output.snapshots import read_snapshots
 from pardem.scene import SceneError, load_scene

@@ -9,7 +9,6 @@ packing change it by a factor of two).
 
 from __future__ import annotations
 
-import math
 
 from .memory import needed_bytes, particle_count, size_text
 from .scene import Scene, scene_to_toml

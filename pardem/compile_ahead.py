@@ -27,7 +27,8 @@ import numpy as np
 from numba.core import types
 
 from .contact.history import NO_HISTORY
-from .forces import ForceWork, contact_forces, ring_contacts
+from .forces import ForceWork, contact_forces
+from .ring_forces import ring_contacts
 from .rebuild import exchange_counts
 
 

@@ -14,17 +14,17 @@ number of ranks, and a pair seen by two ranks gets the same bits on both.
 
 from __future__ import annotations
 
-import math
 from typing import NamedTuple
 
 import numba as nb
 import numpy as np
 
-from .contact.model import (BATCH, MAX_OVERLAP, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY,
-                            W_FN, W_FTX, W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ,
-                            history_width, lane_contact, surface_contact, work_size)
+from .contact.model import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX,
+                            W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, history_width,
+                            lane_contact, work_size)
+from .contact.overlap import lane_overlap, note_deep, too_deep
 from .jit import INLINE, JIT
-from .walls import outer_radius, ring_surface
+from .ring_forces import ring_contacts
 
 
 # The selection pays while fewer than this fraction of the listed pairs have a force (B in
@@ -84,43 +84,6 @@ def new_work(o, capacity):
     rows[rows.size - 2] = RECHECK
     return ForceWork(rows, np.empty((2, capacity), np.int32), np.array([-1, 0]),
                      np.array([-1.0, 0.0, 0.0]))
-
-
-@nb.njit(**INLINE)
-def too_deep(work, ln):
-    """Whether lane ln's disks may overlap by more than MAX_OVERLAP of the smaller free
-    diameter: centres closer than a_i + a_j - 2 MAX_OVERLAP min(a_i, a_j) (no square root, so
-    that the law's loop stays vectorised; note_deep decides with the free disks' diameter)."""
-    td_ai = work[W_AI * BATCH + ln]
-    td_aj = work[W_AJ * BATCH + ln]
-    td_dx = work[W_DX * BATCH + ln]
-    td_dy = work[W_DY * BATCH + ln]
-    td_lim = td_ai + td_aj - 2.0 * MAX_OVERLAP * min(td_ai, td_aj)
-    return td_dx * td_dx + td_dy * td_dy < td_lim * td_lim
-
-
-@nb.njit(**INLINE)
-def note_deep(deep, index, delta, diameter, ring):
-    """Keep the deepest overlap delta (m) beyond MAX_OVERLAP of ``diameter`` (m) in
-    ForceWork.deep: rare, so the pair loops only flag it (W_ACT = 2) and it is measured here."""
-    nd_ratio = delta / diameter
-    if nd_ratio > MAX_OVERLAP and nd_ratio > deep[1]:
-        deep[0] = index
-        deep[1] = nd_ratio
-        deep[2] = ring
-
-
-@nb.njit(**INLINE)
-def lane_overlap(work, ln, kind_i, kind_j):
-    """(overlap m, smaller diameter of its free disks m) of lane ln: a wall disk (kind != 0)
-    cannot move through a free disk, and the rings' 2.5 mm disks would make a compressed
-    packing's 8 % of a free diameter look like a third of theirs."""
-    lo_ai = work[W_AI * BATCH + ln]
-    lo_aj = work[W_AJ * BATCH + ln]
-    lo_d = math.sqrt(work[W_DX * BATCH + ln] ** 2 + work[W_DY * BATCH + ln] ** 2)
-    lo_fi = lo_ai if kind_i == 0 else math.inf
-    lo_fj = lo_aj if kind_j == 0 else math.inf
-    return lo_ai + lo_aj - lo_d, 2.0 * min(lo_fi, lo_fj)
 
 
 @nb.njit(**JIT)
@@ -411,41 +374,3 @@ def zero_pairs(sxi, rfn, rft, start, stop, n_hist, record):
             rfn[zq] = 0.0
         for zq in range(2 * start, 2 * stop):
             rft[zq] = 0.0
-
-
-@nb.njit(**JIT)
-def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, deep):
-    """Contacts of candidate free particles with the two flat ring surfaces (infinitely
-    massive; walls.ring_surface gives the geometry and the surface's motion); an overlap
-    beyond MAX_OVERLAP of the disk's diameter is noted in ``deep`` (ForceWork.deep)."""
-    has_hist = history_width(o) > 0
-    r_o, r_o_dot = outer_radius(t, prm.rings)
-    lim = reach if o.damping and o.window else 0.0
-    for q in range(pairs.wall_count[0]):
-        i = pairs.wall[q]
-        a = ps.radius[i]
-        ring, nx, ny, delta, vjx, vjy, s_j, w_j = ring_surface(ps.x[i, 0], ps.x[i, 1], a, lim,
-                                                               r_o, r_o_dot, prm.rings)
-        if ring == 0:
-            if has_hist:
-                ps.hist_wall[i, :] = 0.0
-            if record:
-                pairs.wall_fn[q] = 0.0
-                pairs.wall_ft[q, 0] = 0.0
-                pairs.wall_ft[q, 1] = 0.0
-            continue
-        if delta > 2.0 * MAX_OVERLAP * a:
-            note_deep(deep, float(i), delta, 2.0 * a, float(ring))
-        w_i = ps.w_pred[i] if rotation else 0.0
-        s = (a * ps.w_pred[i] if rotation else 0.0) + s_j
-        fn, ftx, fty, torque = surface_contact(
-            (nx, ny), delta, a, (ps.v_pred[i, 0] - vjx + s * ny, ps.v_pred[i, 1] - vjy - s * nx),
-            (w_i, w_j), ps.hist_wall, i, prm.law, o)
-        if record:
-            pairs.wall_fn[q] = fn
-            pairs.wall_ft[q, 0] = ftx
-            pairs.wall_ft[q, 1] = fty
-        ps.f[i, 0] += fn * nx + ftx
-        ps.f[i, 1] += fn * ny + fty
-        if rotation:
-            ps.tau[i] += torque

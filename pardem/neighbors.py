@@ -18,7 +18,7 @@ import numba as nb
 import numpy as np
 
 from .contact.history import carry_history, live_history
-from .jit import JIT, copy_values
+from .jit import JIT
 from .sorted_runs import run_order
 from .walls import outer_radius, ring_surface
 

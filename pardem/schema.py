@@ -9,12 +9,9 @@ from __future__ import annotations
 
 import dataclasses
 import math
-import numbers
 from dataclasses import MISSING
 from pathlib import Path
 from typing import Any
-
-import numpy as np
 
 from .contact.model import check_slots
 from .particles_input import check_particles, particles_from_file, particles_from_tables

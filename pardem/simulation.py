@@ -26,11 +26,11 @@ from pathlib import Path
 import numpy as np
 
 from .compile_ahead import compile_ahead, compile_first
-from .contact.history import carry_history, live_history
-from .contact.model import MAX_OVERLAP, history_columns, law_params, options_for
-from .output.progress import (breakdown, end_progress, log_line, progress_line, show_progress,
-                              start_notes)
-from .output.restart import gather_state, restore
+from .contact.history import live_history, tracks_eta
+from .contact.model import history_columns, law_params, options_for
+from .output.progress import breakdown, end_progress, log_line, start_notes
+from .output.progress import report as report_progress
+from .output.restart import gather_state, put_recorded_forces, restore
 from .output.series import continue_series
 from .output.snapshots import write_snapshot
 from .output.checkpoint import save_checkpoint
@@ -48,24 +48,13 @@ from .state import Params, new_clock, new_pairs
 from .step import (BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP, StepOptions,
                    make_stepper)
 from .timestep import check_step_count, resolve_step
+from .watchdog import bad_particle_message, too_deep_message
 from .views import StateViews
 from .walls import rings_of, wall_layout
 
 
 class SimulationError(RuntimeError):
     """The run became invalid (non-finite value, particle left the cell)."""
-
-
-def tracks_eta(scene: Scene, writes_output: bool) -> bool:
-    """Whether a run keeps the paper's total tangential displacement eta (eq. 1.3) per contact:
-    only with tangential friction, and only where something reads it: in-situ averaging with
-    [averaging] displacement = "eta", or contacts written with the snapshots
-    (offline averaging may use either). Otherwise the step loop is compiled without it."""
-    if not scene.effects.tangential_friction:
-        return False
-    avg = scene.averaging
-    return ((writes_output and scene.output.contacts)
-            or (avg is not None and scene.geometry is not None and avg.displacement == "eta"))
 
 
 class Simulation(StateViews):
@@ -152,7 +141,7 @@ class Simulation(StateViews):
         if restart is None:
             self._compute_forces()
         else:
-            self._put_recorded_forces(*recorded)
+            put_recorded_forces(self, *recorded)
         reuse_freed_arrays()  # the set-up's peak is past; builds reuse their blocks (memory.py)
 
     # -- public state ----------------------------------------------------------------------
@@ -188,16 +177,6 @@ class Simulation(StateViews):
         self.decomp.wait[0] = 0.0
         self.n_rebuilds = 0
 
-    def stats(self) -> dict:
-        """This rank's counts: owned particles, ghosts, listed pairs, neighbour ranks, ghosts
-        sent per step, whether the refresh needs an Allreduce, seconds spent waiting."""
-        h = self.decomp.halo
-        return {"owned": int(self.clock.n_owned[0]), "ghosts": int(self.clock.n_ghost[0]),
-                "pairs": int(self.pairs.count[0]), "neighbours": 0 if h is None else
-                int(h.nbr.size), "sent": 0 if h is None else int(h.send_idx.size),
-                "allreduce": bool(h is not None and h.cfg.allreduce),
-                "wait": float(self.decomp.wait[0])}
-
     # -- setting up -------------------------------------------------------------------------
     def set_particles(self, ids, position=None, velocity=None, omega=None) -> None:
         """Prepared initial conditions (collective): give the free particles ``ids`` new
@@ -225,18 +204,6 @@ class Simulation(StateViews):
         v2 = float((self.ps.v[:n] ** 2).sum(axis=1).max()) if n else 0.0
         self.stepper.compute_forces(self.ps, self.pairs, self.clock, self.prm, self.decomp.halo,
                                     self.decomp.max(v2))
-
-    def _put_recorded_forces(self, lo, hi, pair_force, ring_gid, ring_force) -> None:
-        """A checkpoint's applied forces into the new lists (output right after a restart):
-        pairs by key, ring contacts by gid (``ring_gid`` ascending)."""
-        count, pairs, gid = int(self.pairs.count[0]), self.pairs, self.ps.gid
-        force = np.ascontiguousarray(pair_force, float).reshape(-1, 3)  # (fn, ftx, fty)
-        # straight into fn and ft: a (count, 3) table first was the set-up's peak at 1M disks
-        carry_history(lo, hi, force, gid, pairs.i, pairs.j, pairs.fn[:count].reshape(-1, 1))
-        carry_history(lo, hi, force, gid, pairs.i, pairs.j, pairs.ft[:count], 1)
-        q = pairs.wall[:pairs.wall_count[0]]
-        ring = np.asarray(ring_force, float)[np.searchsorted(ring_gid, self.ps.gid[q])]
-        pairs.wall_fn[:q.size], pairs.wall_ft[:q.size] = ring[:, 0], ring[:, 1:]
 
     # -- neighbour lists ----------------------------------------------------------------------
     def _rebuild(self, history=None, rebalance: bool = True, exchange: bool = True) -> None:
@@ -316,7 +283,7 @@ class Simulation(StateViews):
                     self._timed(w.stage, w.write, self)
             if report or signum:
                 last_report = t1
-                self._timed("progress", self._report, since, end_step, progress)
+                self._timed("progress", report_progress, self, since, end_step, progress)
             if signum:
                 break
         for w in writers:
@@ -356,7 +323,7 @@ class Simulation(StateViews):
                 rebuild_on_request(self)
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
             elif status in (BAD_PARTICLE, TOO_DEEP):
-                self._stop(self._bad_particle_message(bad) if bad >= 0 else None)
+                self._stop(bad_particle_message(self, bad) if bad >= 0 else None)
             elif status == MPI_FAILED:
                 raise RuntimeError(f"MPI ghost exchange failed on rank {self.decomp.rank} at "
                                    f"step {self.step}")
@@ -373,46 +340,15 @@ class Simulation(StateViews):
         """Stop every rank with the first rank's message (collective): an overlap beyond
         MAX_OVERLAP on this rank first (it is why particles go bad), else ``message``."""
         if self.clock.deep[0] >= 0.0:
-            message = self._too_deep_message()
+            message = too_deep_message(self.clock.deep, self.dt)
         message = self.decomp.first_message(message)
         self.log(f"run stopped: {message}")
         raise SimulationError(message)
-
-    def _too_deep_message(self) -> str:
-        t, i, j, ratio = self.clock.deep
-        partner = (f"particle id {int(j)}" if j >= 0 else
-                   f"the {'inner' if j == -1 else 'outer'} ring's surface")
-        return (f"particle id {int(i)} and {partner} overlap by {100 * ratio:.3g} % of the "
-                f"smaller free diameter at t = {t:.6f} s, beyond the {100 * MAX_OVERLAP:.0f} % the "
-                "linear contact law represents (the disks would pass through each other): they "
-                f"met too fast for dt = {self.dt:.4g} s and k_n; lower the speeds or dt, or "
-                "raise [contact] k_n; the last checkpoint is kept")
 
     def _timed(self, stage: str, fn, *args) -> None:
         t0 = time.perf_counter()
         fn(*args)
         self.timers[stage] += time.perf_counter() - t0
-
-    def _report(self, since: list, end_step: int, progress: bool) -> None:
-        # the rate window runs from the end of the last report to the start of this one
-        elapsed, steps = time.perf_counter() - since[0], self.step - since[1]
-        e_kin, overlap = self.kinetic_energy(), self.max_overlap()  # collective
-        since[:] = time.perf_counter(), self.step
-        if self.decomp.rank != 0:
-            return
-        line = progress_line(self, elapsed, steps, end_step, e_kin, overlap)
-        self.log(line)
-        if progress:
-            show_progress(line)
-
-    def _bad_particle_message(self, k: int) -> str:
-        ps = self.ps
-        x, ref = ps.x[k], ps.x_ref[k]
-        return (f"particle id {int(ps.gid[k])} became invalid at t = {self.time:.6f} s (step "
-                f"{self.step}): position ({x[0]:.6g}, {x[1]:.6g}) m, velocity "
-                f"({ps.v[k, 0]:.6g}, {ps.v[k, 1]:.6g}) m/s (non-finite, or outside the cell; "
-                f"at the last neighbour-list build it was at ({ref[0]:.6g}, {ref[1]:.6g}) m); "
-                "the last checkpoint is kept")
 
     # -- output --------------------------------------------------------------------------------
     @property

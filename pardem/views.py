@@ -123,3 +123,13 @@ class StateViews:
         out["coordination"] = np.bincount(np.searchsorted(out["id"], ids.ravel()),
                                           minlength=out["id"].size)
         return out
+
+    def stats(self) -> dict:
+        """This rank's counts: owned particles, ghosts, listed pairs, neighbour ranks, ghosts
+        sent per step, whether the refresh needs an Allreduce, seconds spent waiting."""
+        h = self.decomp.halo
+        return {"owned": int(self.clock.n_owned[0]), "ghosts": int(self.clock.n_ghost[0]),
+                "pairs": int(self.pairs.count[0]), "neighbours": 0 if h is None else
+                int(h.nbr.size), "sent": 0 if h is None else int(h.send_idx.size),
+                "allreduce": bool(h is not None and h.cfg.allreduce),
+                "wait": float(self.decomp.wait[0])}

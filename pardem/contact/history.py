@@ -99,3 +99,15 @@ def merge_history(lo, hi, xi, rows):
 
 NO_HISTORY = (np.zeros(0, np.int64), np.zeros(0, np.int64), np.zeros((0, 2)))
 """An empty history table (gid_lo, gid_hi, rows)."""
+
+
+def tracks_eta(scene, writes_output: bool) -> bool:
+    """Whether a run keeps the paper's total tangential displacement eta (eq. 1.3) per contact:
+    only with tangential friction, and only where something reads it: in-situ averaging with
+    [averaging] displacement = "eta", or contacts written with the snapshots
+    (offline averaging may use either). Otherwise the step loop is compiled without it."""
+    if not scene.effects.tangential_friction:
+        return False
+    avg = scene.averaging
+    return ((writes_output and scene.output.contacts)
+            or (avg is not None and scene.geometry is not None and avg.displacement == "eta"))

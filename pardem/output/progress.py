@@ -84,3 +84,18 @@ def breakdown(sim) -> str:
         builds += f", {d.n_exchanges} of them with an exchange"
     return "\n".join([f"time per stage on rank {d.rank} ({sim.step} steps, {builds}; "
                       f"{d.describe()}):", *rows])
+
+
+def report(sim, since: list, end_step: int, progress: bool) -> None:
+    """The progress line (collective: kinetic energy and largest overlap); rank 0 logs and
+    shows it."""
+    # the rate window runs from the end of the last report to the start of this one
+    elapsed, steps = time.perf_counter() - since[0], sim.step - since[1]
+    e_kin, overlap = sim.kinetic_energy(), sim.max_overlap()  # collective
+    since[:] = time.perf_counter(), sim.step
+    if sim.decomp.rank != 0:
+        return
+    line = progress_line(sim, elapsed, steps, end_step, e_kin, overlap)
+    sim.log(line)
+    if progress:
+        show_progress(line)

@@ -16,7 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from ..contact.history import merge_history
+from ..contact.history import carry_history, merge_history
 from ..placement import cell_rows, share_rows
 from ..scene import SceneError, physics_differences
 from ..state import FREE, Particles
@@ -263,3 +263,16 @@ def _history_columns(path, rows: np.ndarray, written: tuple[str, ...],
         elif name.startswith("eta_") and f"spring_{name[-1]}" in written:
             out[:, c] = rows[:, written.index(f"spring_{name[-1]}")]
     return out
+
+
+def put_recorded_forces(sim, lo, hi, pair_force, ring_gid, ring_force) -> None:
+    """A checkpoint's applied forces into the new lists (output right after a restart):
+    pairs by key, ring contacts by gid (``ring_gid`` ascending)."""
+    count, pairs, gid = int(sim.pairs.count[0]), sim.pairs, sim.ps.gid
+    force = np.ascontiguousarray(pair_force, float).reshape(-1, 3)  # (fn, ftx, fty)
+    # straight into fn and ft: a (count, 3) table first was the set-up's peak at 1M disks
+    carry_history(lo, hi, force, gid, pairs.i, pairs.j, pairs.fn[:count].reshape(-1, 1))
+    carry_history(lo, hi, force, gid, pairs.i, pairs.j, pairs.ft[:count], 1)
+    q = pairs.wall[:pairs.wall_count[0]]
+    ring = np.asarray(ring_force, float)[np.searchsorted(ring_gid, sim.ps.gid[q])]
+    pairs.wall_fn[:q.size], pairs.wall_ft[:q.size] = ring[:, 0], ring[:, 1:]

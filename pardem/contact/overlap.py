@@ -1,0 +1,52 @@
+"""The overlap guard of the pair loops: an overlap deeper than MAX_OVERLAP of the smaller free
+diameter, which the linear law cannot represent (disks would pass through each other), is
+flagged by the loops and stops the run (step.py's TOO_DEEP).
+
+Stage: forces (inlined into the loops of forces.py and ring_forces.py).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba as nb
+
+from ..jit import INLINE
+from .model import BATCH, MAX_OVERLAP, W_AI, W_AJ, W_DX, W_DY
+
+
+@nb.njit(**INLINE)
+def too_deep(work, ln):
+    """Whether lane ln's disks may overlap by more than MAX_OVERLAP of the smaller free
+    diameter: centres closer than a_i + a_j - 2 MAX_OVERLAP min(a_i, a_j) (no square root, so
+    that the law's loop stays vectorised; note_deep decides with the free disks' diameter)."""
+    td_ai = work[W_AI * BATCH + ln]
+    td_aj = work[W_AJ * BATCH + ln]
+    td_dx = work[W_DX * BATCH + ln]
+    td_dy = work[W_DY * BATCH + ln]
+    td_lim = td_ai + td_aj - 2.0 * MAX_OVERLAP * min(td_ai, td_aj)
+    return td_dx * td_dx + td_dy * td_dy < td_lim * td_lim
+
+
+@nb.njit(**INLINE)
+def note_deep(deep, index, delta, diameter, ring):
+    """Keep the deepest overlap delta (m) beyond MAX_OVERLAP of ``diameter`` (m) in
+    ForceWork.deep: rare, so the pair loops only flag it (W_ACT = 2) and it is measured here."""
+    nd_ratio = delta / diameter
+    if nd_ratio > MAX_OVERLAP and nd_ratio > deep[1]:
+        deep[0] = index
+        deep[1] = nd_ratio
+        deep[2] = ring
+
+
+@nb.njit(**INLINE)
+def lane_overlap(work, ln, kind_i, kind_j):
+    """(overlap m, smaller diameter of its free disks m) of lane ln: a wall disk (kind != 0)
+    cannot move through a free disk, and the rings' 2.5 mm disks would make a compressed
+    packing's 8 % of a free diameter look like a third of theirs."""
+    lo_ai = work[W_AI * BATCH + ln]
+    lo_aj = work[W_AJ * BATCH + ln]
+    lo_d = math.sqrt(work[W_DX * BATCH + ln] ** 2 + work[W_DY * BATCH + ln] ** 2)
+    lo_fi = lo_ai if kind_i == 0 else math.inf
+    lo_fj = lo_aj if kind_j == 0 else math.inf
+    return lo_ai + lo_aj - lo_d, 2.0 * min(lo_fi, lo_fj)
