@@ -164,8 +164,9 @@ def check_free_speeds(scene: Scene, dt: float) -> None:
         u, limit = float(v[i] + v[j]), approach_speed_limit(scene, dt)
         if u > limit:
             raise SceneError(
-                f"[[particles]] #{i} and #{j} move at {v[i]:.3g} and {v[j]:.3g} m/s: head on "
-                f"they would meet at {u:.3g} m/s and overlap by up to "
+                f"free particles #{i} and #{j} (0-based, in the order given) move at "
+                f"{v[i]:.3g} and {v[j]:.3g} m/s: head on they would meet at {u:.3g} m/s and "
+                "overlap by up to "
                 f"{100 * MAX_OVERLAP * u / limit:.3g} % of the smaller diameter, beyond the "
                 f"{100 * MAX_OVERLAP:.0f} % the contact law represents (they could pass "
                 f"through each other); at dt = {dt:.4g} s and k_n = {scene.contact.k_n:g} N/m "
@@ -175,8 +176,9 @@ def check_free_speeds(scene: Scene, dt: float) -> None:
     if np.any(per_step > 0.5):
         i = int(np.argmax(per_step))
         raise SceneError(
-            f"[[particles]] #{i}: moves at {speed[i]:.3g} m/s (velocity and spin at its rim), "
-            f"{per_step[i]:.3g} diameters per step of {dt:.4g} s: it could pass through another "
+            f"free particle #{i} (0-based, in the order given): moves at {speed[i]:.3g} m/s "
+            f"(velocity and spin at its rim), {per_step[i]:.3g} diameters per step of "
+            f"{dt:.4g} s: it could pass through another "
             f"disk between two steps; at most {0.5 * p.diameter[i] / dt:.3g} m/s at this dt")
 
 

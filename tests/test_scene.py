@@ -658,12 +658,14 @@ def test_a_free_disk_that_would_skip_a_partner_in_one_step_is_refused():
     ok = scene_from_dict(mutate(d, "particles.1.vx", -4.45))  # 4.5 m/s with the other's 0.05
     assert 0.99 * 2.1765e-3 / 50 <= resolve_dt(ok) <= 2.1765e-3 / 50
     for value, speed in ((-4.5, "4.5"), (1e200, "1e+200")):
-        message = (rf"\[\[particles\]\] #1 and #0 move at {re.escape(speed)} and 0.05 m/s: "
-                   r"head on they would meet at .* disks may approach at up to 4.54 m/s")
+        message = (rf"free particles #1 and #0 \(0-based, in the order given\) move at "
+                   rf"{re.escape(speed)} and 0.05 m/s: head on they would meet at .* disks "
+                   r"may approach at up to 4.54 m/s")
         with pytest.raises(SceneError, match=message):
             resolve_dt(scene_from_dict(mutate(d, "particles.1.vx", value)))
-    message = (r"\[\[particles\]\] #1: moves at 85.4 m/s .*it could pass through another disk "
-               r"between two steps; at most 85.3 m/s at this dt")
+    message = (r"free particle #1 \(0-based, in the order given\): moves at 85.4 m/s .*it "
+               r"could pass through another disk between two steps; at most 85.3 m/s at this "
+               r"dt")
     with pytest.raises(SceneError, match=message):  # 0.05 + 23000 a
         resolve_dt(scene_from_dict(mutate(d, "particles.1.omega", 23000.0)))
     heavy = mutate(mutate(d, "particles.0.mass", 1e9), "particles.1.mass", 1e9)

@@ -122,7 +122,8 @@ def test_disks_that_meet_too_fast_are_refused_with_the_right_speed(tmp_path, cap
     toml = fast_pair(tmp_path, 20.0)
     assert cli.main(["run", str(toml), "--out", str(tmp_path / "out"), "--end", "0.003"]) == 2
     err = capsys.readouterr().err
-    assert "#0 and #1 move at 20 and 20 m/s: head on they would meet at 40 m/s" in err
+    assert ("#0 and #1 (0-based, in the order given) move at 20 and 20 m/s: head on they "
+            "would meet at 40 m/s") in err
     assert f"disks may approach at up to {APPROACH_LIMIT:.3g} m/s" in err
     assert APPROACH_LIMIT == pytest.approx(4.543, abs=0.001)
     ok = fast_pair(tmp_path, 0.499 * APPROACH_LIMIT)
