@@ -231,7 +231,11 @@ def torque_resistance(runs, out):
                 label=f"{run['label']}: (k_t/πh)|(κ·F)_r|/(k'_n|κ_zr|), the spring identity")
     ax.set(xlabel="r̃", ylabel="torque resistance μ_c / k'_n = |M_zr| / (k'_n |κ_zr|)",
            xlim=(0, _r_max(runs)))
-    ax.set_yscale("log")
+    if any(xy(run)[1].size for run in runs):  # a log axis needs a positive value
+        ax.set_yscale("log")
+    else:
+        ax.text(0.5, 0.5, "no ring with a finite, positive μ_c", transform=ax.transAxes,
+                ha="center")
     ax.legend(fontsize=7)
     return _save(fig, out, "fig_1_9_torque_resistance.png")
 

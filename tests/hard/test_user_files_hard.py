@@ -219,3 +219,17 @@ def test_messages_show_values_as_the_user_wrote_them(tmp_path):
                    encoding="utf-8")
     p = scene_from_dict(_free(tmp_path, particles_file="p.csv"), base_dir=tmp_path).particles
     assert p.x.tolist() == [-0.01, 0.01]
+
+
+def test_plot_of_rings_without_any_torque_resistance(compressed_only, tmp_path):
+    """Fig. 1.9 on a log axis with no finite positive mu_c (a short run with eta averages
+    raised ValueError at saving): drawn on a linear axis with a note instead."""
+    import numpy as np
+
+    from averaging.plots import torque_resistance
+    from averaging.report import load_run
+
+    run = load_run(compressed_only)
+    run["rings"]["mu_c"] = np.full_like(run["rings"]["mu_c"], np.nan)
+    run["rings"]["kappa_zr"] = np.full_like(run["rings"]["kappa_zr"], np.nan)
+    assert torque_resistance([run], tmp_path).exists()
