@@ -131,6 +131,10 @@ def main(argv: list[str] | None = None) -> int:
                     help="the paper's simulation each run stands for, in order (default: "
                          "that of the shipped scenes couette-A/B/C)")
     args = ap.parse_args(argv)
+    missing = [str(d) for d in args.run_dirs if not (d / "rings.h5").exists()]
+    if missing:
+        ap.error(f"no rings.h5 in {', '.join(missing)} (a run with [averaging], or `pardem "
+                 "average DIR --out DIR`)")
     all_runs = [load_run(d) for d in args.run_dirs]
     if args.names:
         if len(args.names) != len(all_runs):
