@@ -25,10 +25,10 @@ from pardem.scene import AveragingCfg
 from pardem.simulation import Simulation
 
 
-def _shear_cell(mu=0.44, averaging=None, output=None, end=0.4):
+def _shear_cell(mu=0.44, averaging=None, output=None, end=0.4, omega=10.0):
     """A small dense cell compressed in 0.1 s and sheared at 10 rad/s: contacts slide."""
     g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
-         "compression_time": 0.1, "omega_inner": 10.0}
+         "compression_time": 0.1, "omega_inner": omega}
     scene = couette_scene(counts=(260, 40), geometry=g, time={"end": end}, output=output,
                           averaging=averaging, name="shear-cell")
     return dataclasses.replace(scene, contact=dataclasses.replace(scene.contact, mu=mu))
@@ -53,29 +53,41 @@ def _fields_at_end(sim, which):
     return avg.fields()
 
 
+def _sliding_pair(x0, y0, u, end, dt, centre=(0.0, 0.0)):
+    """Disk 1 at rest at ``centre``, disk 0 at centre + (x0, y0) moving along x at u; both of
+    huge mass, so the contact forces (~0.01 N) hardly change the motion. u and dt are small
+    enough for the approach-speed limit (which does not look at the direction): the masses
+    make any head-on meeting deep."""
+    big = 1e9  # kg
+    scene = free_scene([{"x": centre[0] + x0, "y": centre[1] + y0, "vx": u, "diameter": D_SMALL,
+                         "mass": big},
+                        {"x": centre[0], "y": centre[1], "diameter": D_SMALL, "mass": big}],
+                       effects={"tangential_friction": True}, time={"dt": dt, "end": end})
+    return dataclasses.replace(scene, output=dataclasses.replace(
+        scene.output, snapshot_interval=end / 3, checkpoint_interval=end))
+
+
 def test_eta_is_the_integral_of_the_tangential_velocity(tmp_path):
-    """Two disks of huge mass (constant velocities) slide past each other: disk 1 rests at the
-    origin, disk 0 moves along x at u with its centre at height y0 < a0 + a1, so they overlap
-    all the time. v_ij . t = -u y0/|r| with t = z x n, so eta . t = -y0 [asinh(x/y0)] from x0
-    to x0 + u T (independent of the code). The spring stays capped at mu f_n / k_t."""
+    """Two disks of huge mass slide past each other: disk 1 rests at the origin, disk 0 moves
+    along x with its centre at height y0 < a0 + a1, so they overlap all the time. v_ij . t =
+    -u y0/|r| with t = z x n, so eta . t = -y0 [asinh(x/y0)] between the first and the last x
+    (independent of the code; x from the final state, which the forces shift by ~1e-6 m). The
+    spring stays capped at mu f_n / k_t."""
     a = D_SMALL / 2
-    y0, x0, u, end = 0.995 * 2 * a, -3e-4, 0.01, 0.06
-    big = 1e9  # kg: forces of ~0.01 N change nothing
-    scene = free_scene([{"x": x0, "y": y0, "vx": u, "diameter": D_SMALL, "mass": big},
-                        {"x": 0.0, "y": 0.0, "diameter": D_SMALL, "mass": big}],
-                       effects={"tangential_friction": True},
-                       time={"dt": 1e-5, "end": end})
+    y0, x0 = 0.995 * 2 * a, -3e-4
+    scene = _sliding_pair(x0, y0, 1e-6, 600.0, 1e-2)
     sim = Simulation(scene, out_dir=tmp_path)  # contacts written: eta tracked
     sim.run(progress=False)
     c = sim.contacts()
     assert c["ids"].tolist() == [[0, 1]]
     n = c["normal"][0]
     t_hat = np.array([-n[1], n[0]])
-    x1 = x0 + u * sim.time
+    pos = sim.particle_arrays()["position"]
+    x1 = pos[0, 0] - pos[1, 0]
     expected = -y0 * (math.asinh(x1 / y0) - math.asinh(x0 / y0))
     eta = c["displacement"][0]
     assert abs(eta @ n) < 1e-12  # kept in the tangent plane
-    assert eta @ t_hat == pytest.approx(expected, rel=1e-3)
+    assert eta @ t_hat == pytest.approx(expected, rel=2e-3)
     cap = scene.contact.mu * abs(c["normal_force"][0]) / K_T
     assert np.hypot(*c["spring"][0]) == pytest.approx(cap, rel=1e-6)
     assert abs(expected) > 20 * cap  # the contact slid far beyond its spring
@@ -128,8 +140,9 @@ def test_eta_breaks_the_identity_where_contacts_slide(sheared_cell):
 def test_without_sliding_eta_is_the_spring_and_the_averages_agree():
     """mu so large that no contact reaches the cap: eta = xi bit for bit, so both choices of
     Delta give identical ring sums."""
+    # sheared gently: without sliding, 10 rad/s would press disks beyond the overlap guard
     sim = Simulation(_shear_cell(mu=1e6, averaging={"start": 0.0, "end": 0.4,
-                                                    "displacement": "eta"}, end=0.2))
+                                                    "displacement": "eta"}, end=0.2, omega=2.0))
     sim.run(progress=False)
     table = sim.contacts()
     assert len(table["ids"]) > 300 and not table["sliding"].any()
@@ -211,19 +224,15 @@ def test_a_steadily_sliding_contact_keeps_the_spring_at_the_cap_while_eta_grows(
     the sliding direction, while eta grows as the integral of v_t. The contact's ring sums of
     Delta (x) l and (l x Delta) l, computed here by hand from the geometry, agree with the
     code's for Delta with the spring and with eta."""
-    a, big, u = D_SMALL / 2, 1e9, 0.01
+    a, u = D_SMALL / 2, 1e-6
     centre = np.array([0.0, 0.2])  # off the axis, so that the rings and polar frames exist
     y0, x0 = 0.995 * 2 * a, -3e-4
-    scene = free_scene([{"x": x0, "y": centre[1] + y0, "vx": u, "diameter": D_SMALL,
-                         "mass": big},
-                        {"x": 0.0, "y": centre[1], "diameter": D_SMALL, "mass": big}],
-                       effects={"tangential_friction": True}, time={"dt": 1e-5, "end": 0.06})
-    sim = Simulation(scene, out_dir=tmp_path)
+    sim = Simulation(_sliding_pair(x0, y0, u, 600.0, 1e-2, tuple(centre)), out_dir=tmp_path)
     assert sim.hist == 4  # contacts written: eta tracked
-    for end in (0.02, 0.04, 0.06):
+    for end in (200.0, 400.0, 600.0):
         sim.run(end=end, progress=False)
         c = sim.contacts()
-        xs = np.array([[x0 + u * sim.time, centre[1] + y0], centre])
+        xs = sim.particle_arrays()["position"]  # the geometry by hand from the positions
         gap = xs[0] - xs[1]
         n0 = gap / np.hypot(*gap)
         delta = 2 * a - np.hypot(*gap)
@@ -231,13 +240,12 @@ def test_a_steadily_sliding_contact_keeps_the_spring_at_the_cap_while_eta_grows(
         cap = MU * K_N * delta / K_T
         slide = np.sign(u * t_hat[0])  # relative velocity (u, 0) along t
         xi0 = cap * slide * t_hat
-        eta0 = -y0 * (math.asinh((xs[0, 0]) / y0) - math.asinh(x0 / y0)) * t_hat
+        eta0 = -y0 * (math.asinh(gap[0] / y0) - math.asinh(x0 / y0)) * t_hat
         assert np.allclose(c["normal"][0], n0, rtol=0, atol=1e-9)
         assert c["overlap"][0] == pytest.approx(delta, rel=1e-6)
         assert np.allclose(c["spring"][0], xi0, rtol=1e-6, atol=0)
-        # eta takes one step's increment u dt more or less than the integral (when the
-        # contact's first and last steps count)
-        assert np.allclose(c["displacement"][0], eta0, rtol=0, atol=1.5 * u * 1e-5)
+        # eta: the integral along the straight path at y0 (the forces shift y by ~1e-6 m)
+        assert np.allclose(c["displacement"][0], eta0, rtol=2e-3, atol=0)
         assert np.hypot(*eta0) > 5 * cap  # slid far beyond the spring
         # the sums by hand from the hand spring, and from the contact's eta (checked above)
         for which, t0 in (("spring", xi0), ("eta", c["displacement"][0])):
