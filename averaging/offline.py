@@ -16,7 +16,7 @@ from pardem.output.snapshots import read_snapshots
 from pardem.scene import SceneError, load_scene
 from pardem.output.writers import is_sample_step, sample_range
 from pardem.schema import ring_width_problem
-from pardem.timestep import resolve_dt
+from pardem.timestep import normal_stiffness, resolve_dt
 
 from .sample import snapshot_sample
 from .timeavg import RingAverager
@@ -55,7 +55,8 @@ def average_run(run_dir: str | Path, start: float | None = None, end: float | No
             d_ref = (cfg.reference_diameter if cfg and cfg.reference_diameter
                      else 2.0 * float(snap["radius"][free].mean()))
             avg = RingAverager(g.inner_radius, g.outer_radius, ring_width, weighting,
-                               scene.contact.height, d_ref, scene.contact.k_n, g.omega_inner)
+                               scene.contact.height, d_ref, normal_stiffness(scene)[1],
+                               g.omega_inner)
         avg.add(snapshot_sample(snap, displacement), snap["time"])
     if avg is None:
         raise SceneError(f"{run_dir}: no snapshot between t = {start} s and {end} s")

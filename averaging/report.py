@@ -41,6 +41,7 @@ import numpy as np
 
 from pardem.scene import load_scene
 from pardem.check import volume_fraction
+from pardem.timestep import normal_stiffness
 
 from .derived import exponential_fit, log_exponential_fit
 from .io import read_rings
@@ -71,6 +72,7 @@ def load_run(run_dir: str | Path, label: str | None = None, paper: str | None = 
     scene_file = run_dir / "scene.toml"
     scene = load_scene(scene_file if scene_file.exists() else run_dir.parent / "scene.toml")
     c, g = scene.contact, scene.geometry
+    _, k_n, k_t = normal_stiffness(scene)
     d_ref = rings.get("reference_diameter",
                       (rings["r"][1] - rings["r"][0]) / (rings["r_tilde"][1] - rings["r_tilde"][0]))
     paper = paper or PAPER_SCENES.get(scene.info.name)
@@ -78,7 +80,7 @@ def load_run(run_dir: str | Path, label: str | None = None, paper: str | None = 
         label = run_dir.parent.name if run_dir.name == "offline" else run_dir.name
     return {"dir": run_dir, "name": paper or label, "paper": paper, "label": label,
             "scene": scene.info.name, "rings": rings,
-            "k_n_2d": c.k_n / c.height, "k_t": c.k_t, "height": c.height, "d_ref": d_ref,
+            "k_n_2d": k_n / c.height, "k_t": k_t, "height": c.height, "d_ref": d_ref,
             "wall_speed": g.omega_inner * g.inner_radius, "r_in": g.inner_radius,
             "nu_bar": global_volume_fraction(scene), "n_samples": rings["times"].size,
             "window": (float(rings["times"][0]), float(rings["times"][-1]))}

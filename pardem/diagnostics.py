@@ -48,8 +48,9 @@ def elastic_energy_pairs(ps, pairs, prm, o, n_own):
     e = 0.0
     for k in range(pairs.count[0]):
         if pairs.i[k] < n_own:
-            e += elastic_energy(pair_overlap(ps, pairs.i[k], pairs.j[k]), pairs.hist, k, prm.law,
-                                o)
+            ai, aj = ps.radius[pairs.i[k]], ps.radius[pairs.j[k]]
+            e += elastic_energy(pair_overlap(ps, pairs.i[k], pairs.j[k]), ai * aj / (ai + aj),
+                                pairs.hist, k, prm.law, o)
     return e
 
 
@@ -62,7 +63,7 @@ def elastic_energy_rings(ps, pairs, prm, o, r_out):
         i = pairs.wall[q]
         delta = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0, r_out, 0.0,
                              prm.rings)[3]
-        e += elastic_energy(delta, ps.hist_wall, i, prm.law, o)
+        e += elastic_energy(delta, ps.radius[i], ps.hist_wall, i, prm.law, o)
     return e
 
 

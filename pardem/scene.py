@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from .contact.normal import LAWS
+
 
 class SceneError(ValueError):
     """An invalid scene; the message names the table and key at fault."""
@@ -137,12 +139,15 @@ class FreeParticles:
 
 @dataclass(frozen=True)
 class Contact:
-    """``[contact]``: k_n (N/m, 352.1), gamma_n (kg/s, 0.19), k_t (N/m, 267.1), mu (0.44),
-    mu_bottom (2e-5), gravity (m/s^2, 9.81; bottom friction only), height (m, disk height h,
-    6e-3); the optional slots' parameters: gamma_t (kg/s, tangential viscous damping, 0),
-    k_r (N/m, rolling spring, 0), mu_r (rolling resistance's Coulomb-type coefficient, 0),
-    each allowed only with its [effects] switch."""
+    """``[contact]``: normal (the normal law, contact.normal.LAWS: "linear", the paper's
+    spring k_n delta, by default), k_n (N/m, 352.1), gamma_n (kg/s, 0.19), k_t (N/m, 267.1),
+    mu (0.44), mu_bottom (2e-5), gravity (m/s^2, 9.81; bottom friction only), height (m, disk
+    height h, 6e-3); the optional slots' parameters: gamma_t (kg/s, tangential viscous damping,
+    0), k_r (N/m, rolling spring, 0), mu_r (rolling resistance's Coulomb-type coefficient, 0),
+    each allowed only with its [effects] switch; then the other normal laws' parameters, each
+    allowed only with its law."""
 
+    normal: str = key("linear", rule="|".join(LAWS))
     k_n: float = key(352.1, "N/m", ">0")
     gamma_n: float = key(0.19, "kg/s", ">=0")
     k_t: float = key(267.1, "N/m", ">=0")

@@ -14,6 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from .contact.model import check_slots
+from .contact.normal import check_law
 from .particles_input import check_particles, particles_from_file, particles_from_tables
 from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
                     SceneError, SceneInfo, Species, TimeCfg)
@@ -90,6 +91,7 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
            for t in ("contact", "effects", "time", "neighbors", "output")}
     c, e = opt["contact"], opt["effects"]
     check_slots(c, e)
+    check_law(c, d.get("contact", {}))
     averaging = None
     if "averaging" in d:
         a = _parse(d["averaging"], "averaging", "[averaging]")

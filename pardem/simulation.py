@@ -82,7 +82,8 @@ class Simulation(StateViews):
         self.step_length = resolve_step(scene)  # exact (s): the clock is step x this
         self.dt = float(self.step_length)
         e, g = scene.effects, scene.geometry
-        self.contact = options_for(e, scene.time.integrator, tracks_eta(scene, out_dir is not None))
+        self.contact = options_for(e, scene.time.integrator, tracks_eta(scene, out_dir is not None),
+                                   scene.contact.normal)
         self.history_columns = history_columns(self.contact)
         self.hist = len(self.history_columns)
         self.options = StepOptions(self.contact, e.rotation, e.bottom_friction,

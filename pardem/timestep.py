@@ -1,5 +1,5 @@
 """Time step from the analytic contact time of the linear spring-dashpot (SPEC §3;
-contact.model.contact_time). The default step is t_c(smallest pair) / dt_per_contact, shortened
+contact.model.contact_time), with the normal law's linear stiffness (``normal_stiffness``). The default step is t_c(smallest pair) / dt_per_contact, shortened
 by at most 1 % so that a whole number of steps fills a power of ten of a second (``time_quantum``):
 output asked for at multiples of it lands at exactly the times the scene names. A step above
 ``stability_limit`` is refused: t_c/5, or less where a mode of the densest packing the effects
@@ -23,6 +23,7 @@ import numpy as np
 
 from .contact import model
 from .contact.model import MAX_OVERLAP
+from .contact.normal import law_of
 from .scene import Scene, SceneError
 
 
@@ -58,12 +59,21 @@ def smallest_reduced_mass(scene: Scene) -> float:
     return float(a * b / (a + b))
 
 
+def normal_stiffness(scene: Scene) -> tuple[float, float, float]:
+    """(k_load, k_elastic, k_t) N/m: the linear stiffnesses of the scene's contact law at its
+    reference overlap of the largest free disk (contact.normal.NormalLaw.stiffness; k_n, k_n,
+    k_t for the linear law). k_load sets how deep an impact goes, k_elastic (the stiffer,
+    reversible branch) the contact time, the stable step and the averaging's k'_n."""
+    c = scene.contact
+    return law_of(c).stiffness(c, max(d for d, _ in free_disks(scene)))
+
+
 def smallest_contact_time(scene: Scene) -> float:
     """t_c (s) of the pair with the smallest reduced mass; gamma_n counts only if the scene
     switches normal damping on."""
     c = scene.contact
     gamma = c.gamma_n if scene.effects.normal_damping else 0.0
-    return contact_time(c.k_n, gamma, smallest_reduced_mass(scene))
+    return contact_time(normal_stiffness(scene)[1], gamma, smallest_reduced_mass(scene))
 
 
 MAX_IMPACT_OVERLAP = MAX_OVERLAP  # of the smaller diameter of a contact
@@ -86,7 +96,8 @@ def check_wall_speeds(scene: Scene) -> None:
     g = scene.geometry
     if g is None:
         return
-    worst = max(math.sqrt(m / scene.contact.k_n) / d for d, m in free_disks(scene))  # s/m
+    k_load = normal_stiffness(scene)[0]
+    worst = max(math.sqrt(m / k_load) / d for d, m in free_disks(scene))  # s/m
     limit = MAX_IMPACT_OVERLAP / worst  # m/s
     gap = g.outer_start_radius - g.outer_radius
     if gap > 0 and g.compression_time <= 0:
@@ -141,11 +152,12 @@ def approach_speed_limit(scene: Scene, dt: float) -> float:
     d, m = _free_kinds(scene.particles)
     c = scene.contact
     gamma = c.gamma_n if scene.effects.normal_damping else 0.0
+    k_load = normal_stiffness(scene)[0]
     if d.size > 64:
-        worst = np.max((np.sqrt(m / c.k_n) + dt) / d)
+        worst = np.max((np.sqrt(m / k_load) + dt) / d)
     else:
         m_red = m[:, None] * m[None, :] / (m[:, None] + m[None, :])
-        worst = np.max((peak_overlap_time(m_red, c.k_n, gamma) + dt)
+        worst = np.max((peak_overlap_time(m_red, k_load, gamma) + dt)
                        / np.minimum(d[:, None], d[None, :]))
     return float(MAX_OVERLAP / worst)
 
@@ -259,15 +271,16 @@ def contact_modes(scene: Scene) -> list[tuple[str, float]]:
     z = PACKING_CONTACTS
     modes = [(f"a collision's resolution, {STEPS_PER_CONTACT:g} steps per contact time t_c",
               t_c / STEPS_PER_CONTACT)]
-    friction = e.tangential_friction and c.k_t > 0 and c.mu > 0  # mu = 0: it never sticks
+    k_n, k_t = normal_stiffness(scene)[1:]
+    friction = e.tangential_friction and k_t > 0 and c.mu > 0  # mu = 0: it never sticks
     gamma_t = c.gamma_t if friction and e.tangential_damping else 0.0
     gamma_n = c.gamma_n if e.normal_damping else 0.0
-    k_t = c.k_t if friction else 0.0
+    k_t = k_t if friction else 0.0
     damp = z / 2 * (gamma_n + gamma_t) / m_red
     what = "the densest packing's translation, omega^2 = 3 k_n/m_red"
     what += " + 3 k_t/m_red (explicit spring)" if friction else ""
     what += f", damped by {z // 2} gamma/m_red" if damp > 0 else ""
-    modes.append((what, mode_step_limit(z / 2 * c.k_n / m_red, z / 2 * k_t / m_red, damp)))
+    modes.append((what, mode_step_limit(z / 2 * k_n / m_red, z / 2 * k_t / m_red, damp)))
     if friction and e.rotation:
         modes.append(("the densest packing's disks turning alike (gears), omega^2 = 12 k_t/m_red"
                       " (explicit spring)",

@@ -17,13 +17,15 @@ FULL = ContactOptions(damping=True, friction=True, clip=False, window=True)
 def law(n, delta, v, spring, opts=FULL, jitted=True, xr=0.0, a_red=0.0, w=(0.0, 0.0)):
     """contact_law -> (fn, ftx, fty, fr, xix, xiy, xr, flag)."""
     fn = contact_law if jitted else contact_law.py_func
-    return fn(n, delta, v, spring, xr, a_red, w, LAW, opts, False)
+    r = fn(n, delta, v, spring, xr, 0.0, a_red, w, LAW, opts, False)
+    return r[:7] + r[8:]  # without the normal law's history (none for the linear law)
 
 
 def pair(d, a, dv, w, spring, reach=0.0, opts=FULL, defer=False, jitted=True, xr=0.0):
     """pair_force -> (active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, flag)."""
     fn = pair_force if jitted else pair_force.py_func
-    return fn(d, a, dv, w, spring, xr, reach, LAW, opts, defer)
+    r = fn(d, a, dv, w, spring, xr, 0.0, reach, LAW, opts, defer)
+    return r[:11] + r[12:]  # without the normal law's history (none for the linear law)
 
 
 # Hand computation (SPEC §3): a_i = a_j = 5 mm, r_i - r_j = (9 mm, 0) so n = (1, 0), delta = 1 mm;
@@ -191,11 +193,11 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
         r = pair_force((ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1]),
                        (ps.radius[i], ps.radius[j]),
                        (ps.v_pred[i, 0] - ps.v_pred[j, 0], ps.v_pred[i, 1] - ps.v_pred[j, 1]),
-                       (ps.w_pred[i], ps.w_pred[j]), spring, 0.0, sim.clock.reach[0],
+                       (ps.w_pred[i], ps.w_pred[j]), spring, 0.0, 0.0, sim.clock.reach[0],
                        sim.prm.law, sim.contact, False)
         xi[k] = r[8:10]
         rec[k] = r[5:8]
-        n_sliding += r[11]
+        n_sliding += r[12]
         if r[0]:
             f[i] += r[1:3]
             f[j] -= r[1:3]

@@ -7,7 +7,8 @@ Stage: force kernels. Options are compile-time constants (``ContactOptions`` is 
 its values are part of its numba type), so a slot that is off is compiled out: no branch per
 contact and no history column. Slots:
 
-    normal      linear spring k_n delta (eq. 1.1), always on
+    normal      the elastic normal law, a choice (normal.py: "linear", k_n delta, eq. 1.1,
+                by default); always on
     damping     viscous gamma_n delta_dot (eq. 1.2), with the integrator's entry/exit window
     clip        no attractive normal force (off by default, as the analytic solution assumes)
     friction    Cundall-Strack spring xi, f_t = -k_t xi, capped at mu |f_n| (eqs. 1.3-1.4)
@@ -19,12 +20,13 @@ contact and no history column. Slots:
     eta         bookkeeping: the paper's total tangential displacement eta (eq. 1.3), the
                 spring's arithmetic without the cap; no force reads it
 
-History columns per contact, in this order (``history_columns``): the spring (2, with
-friction), the rolling spring (1, with rolling), eta (2). A pair that does not touch has all
+History columns per contact, in this order (``history_columns``): the normal law's (its
+descriptor's ``history``), the spring (2, with friction), the rolling spring (1, with rolling),
+eta (2). A pair that does not touch has all
 zero; a new contact starts from zero.
 
 Adding a slot: its kernel in laws.py, its option, parameters and columns here, its keys in
-scene.py.
+scene.py. Adding a choice of the normal slot: normal.py.
 """
 
 from __future__ import annotations
@@ -36,8 +38,9 @@ import numba as nb
 
 from ..jit import INLINE
 from ..static import static
-from .laws import (coulomb_limit, normal_elastic, normal_viscous, rolling_limit,
-                   spring_increment)
+from .laws import coulomb_limit, normal_viscous, rolling_limit, spring_increment
+from .normal import (LAWS, law_of, normal_energy, normal_force, normal_width,
+                     tangential_stiffness)
 
 
 @static
@@ -51,11 +54,13 @@ class ContactOptions:
     tangential_damping: bool = False
     rolling: bool = False
     eta: bool = False
+    normal: int = 0  # the normal law's NormalLaw.code (0: linear)
 
 
 class LawParams(NamedTuple):
     """Parameters of the law (SI): dt (s), k_n (N/m), gamma_n (kg/s), k_t (N/m), mu,
-    gamma_t (kg/s), k_r (N/m), mu_r."""
+    gamma_t (kg/s), k_r (N/m), mu_r, then the normal laws' further coefficients (their
+    meaning, and that of k_n and k_t, is the normal law's: normal.NormalLaw.coefficients)."""
 
     dt: float
     k_n: float
@@ -65,15 +70,17 @@ class LawParams(NamedTuple):
     gamma_t: float = 0.0
     k_r: float = 0.0
     mu_r: float = 0.0
+    k_unload: float = 0.0
+    k_adhesion: float = 0.0
 
 
-def options_for(effects, integrator: str, eta: bool) -> ContactOptions:
-    """The options of a scene's [effects] table and [time] integrator."""
+def options_for(effects, integrator: str, eta: bool, normal: str = "linear") -> ContactOptions:
+    """The options of a scene's [effects] table, [time] integrator and [contact] normal."""
     return ContactOptions(
         damping=effects.normal_damping, friction=effects.tangential_friction,
         clip=effects.clip_attractive_normal, window=integrator == "verlet",
         tangential_damping=effects.tangential_damping, rolling=effects.rolling_resistance,
-        eta=eta)
+        eta=eta, normal=LAWS[normal].code)
 
 
 # an optional slot's [effects] switch -> (the effect it needs and why, its [contact] parameters
@@ -113,39 +120,48 @@ def check_slots(c: dict, e: dict) -> None:
 def law_params(contact, dt: float) -> LawParams:
     """LawParams from a scene's [contact] table and the time step (s)."""
     return LawParams(dt, contact.k_n, contact.gamma_n, contact.k_t, contact.mu,
-                     contact.gamma_t, contact.k_r, contact.mu_r)
+                     contact.gamma_t, contact.k_r, contact.mu_r)._replace(
+                         **law_of(contact).coefficients(contact))
 
 
 def history_columns(o: ContactOptions) -> tuple[str, ...]:
     """Names of the history columns, in storage order."""
-    return ((("spring_x", "spring_y") if o.friction else ()) + (("rolling",) if o.rolling else ())
-            + (("eta_x", "eta_y") if o.eta else ()))
+    normal = next(law.history for law in LAWS.values() if law.code == o.normal)
+    return (normal + (("spring_x", "spring_y") if o.friction else ())
+            + (("rolling",) if o.rolling else ()) + (("eta_x", "eta_y") if o.eta else ()))
 
 
 @nb.njit(**INLINE)
 def history_width(o):
-    return (2 if o.friction else 0) + (1 if o.rolling else 0) + (2 if o.eta else 0)
+    return normal_width(o) + (2 if o.friction else 0) + (1 if o.rolling else 0) + (
+        2 if o.eta else 0)
+
+
+@nb.njit(**INLINE)
+def spring_column(o):
+    return normal_width(o)
 
 
 @nb.njit(**INLINE)
 def rolling_column(o):
-    return 2 if o.friction else 0
+    return normal_width(o) + (2 if o.friction else 0)
 
 
 @nb.njit(**INLINE)
 def eta_column(o):
-    return (2 if o.friction else 0) + (1 if o.rolling else 0)
+    return normal_width(o) + (2 if o.friction else 0) + (1 if o.rolling else 0)
 
 
 # ----------------------------------------------------------------- the composed law
 
 @nb.njit(**INLINE)
-def contact_law(n, delta, v, spring, xr, a_red, w, law, o, defer):
-    """``-> (fn, ftx, fty, fr, xix, xiy, xr, flag)`` for a contact with unit normal n = (nx, ny),
+def contact_law(n, delta, v, spring, xr, hn, a_red, w, law, o, defer):
+    """``-> (fn, ftx, fty, fr, xix, xiy, xr, hn, flag)`` for a contact with unit normal n = (nx, ny),
     overlap delta (m; <= 0: within half a step of touching, which gets only its share of the
     damping) and contact-point velocity v = (vx, vy) (m/s). ``spring`` = (xix, xiy) and xr
-    (the rolling spring) are the histories before this step; the returned ones are updated.
-    a_red (m): the reduced radius a'; w = (w_i, w_j): the spins. f_r (N) is the rolling
+    (the rolling spring) and hn (the normal law's, normal.py) are the histories before this
+    step; the returned ones are updated. a_red (m): the reduced radius a'; w = (w_i, w_j):
+    the spins. f_r (N) is the rolling
     resistance (a' f_r is its torque on i). ``flag``: sliding; with ``defer``, whether a
     deferred branch was needed and the contact must be redone without ``defer`` (a sliding
     contact is exact either way)."""
@@ -155,21 +171,22 @@ def contact_law(n, delta, v, spring, xr, a_red, w, law, o, defer):
     cl_xr = xr
     cl_vn = cl_vx * cl_nx + cl_vy * cl_ny  # = -delta_dot
     cl_redo = False
-    cl_fn = normal_elastic(delta, law.k_n)
+    cl_fn, cl_hn = normal_force(delta, a_red, hn, law, o)
     if o.damping:
         cl_damp, cl_redo = normal_viscous(delta, cl_vn, law, o.window, defer)
         cl_fn -= cl_damp
     if o.clip:
         cl_fn = max(cl_fn, 0.0)
     if not (o.friction or o.rolling):
-        return cl_fn, 0.0, 0.0, 0.0, cl_xix, cl_xiy, cl_xr, cl_redo
+        return cl_fn, 0.0, 0.0, 0.0, cl_xix, cl_xiy, cl_xr, cl_hn, cl_redo
     if delta <= 0.0:  # within reach of a contact, not touching: no springs
-        return cl_fn, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, cl_redo
+        return cl_fn, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, cl_hn, cl_redo
     cl_ftx, cl_fty, cl_fr, cl_sliding = 0.0, 0.0, 0.0, False
     if o.friction:
+        cl_kt = tangential_stiffness(delta, a_red, law, o)
         cl_xix, cl_xiy = spring_increment(cl_xix, cl_xiy, cl_nx, cl_ny, cl_vx, cl_vy, cl_vn, law.dt)
-        cl_ftx = -law.k_t * cl_xix
-        cl_fty = -law.k_t * cl_xiy
+        cl_ftx = -cl_kt * cl_xix
+        cl_fty = -cl_kt * cl_xiy
         if o.tangential_damping:
             cl_vtx = cl_vx - cl_vn * cl_nx
             cl_vty = cl_vy - cl_vn * cl_ny
@@ -178,11 +195,11 @@ def contact_law(n, delta, v, spring, xr, a_red, w, law, o, defer):
         cl_ftx, cl_fty, cl_sliding = coulomb_limit(cl_ftx, cl_fty, cl_fn, law.mu)
         # sliding: the spring holds what the cap allows (selects, as in coulomb_limit)
         if o.tangential_damping:
-            cl_sx = -(cl_ftx + law.gamma_t * cl_vtx) / law.k_t
-            cl_sy = -(cl_fty + law.gamma_t * cl_vty) / law.k_t
+            cl_sx = -(cl_ftx + law.gamma_t * cl_vtx) / cl_kt
+            cl_sy = -(cl_fty + law.gamma_t * cl_vty) / cl_kt
         else:
-            cl_sx = -cl_ftx / law.k_t
-            cl_sy = -cl_fty / law.k_t
+            cl_sx = -cl_ftx / cl_kt
+            cl_sy = -cl_fty / cl_kt
         cl_xix = cl_sx if cl_sliding else cl_xix
         cl_xiy = cl_sy if cl_sliding else cl_xiy
     if o.rolling:
@@ -190,15 +207,16 @@ def contact_law(n, delta, v, spring, xr, a_red, w, law, o, defer):
         cl_xr = cl_xr + a_red * (cl_wi - cl_wj) * law.dt
         cl_fr, cl_rcap = rolling_limit(-law.k_r * cl_xr, cl_fn, law.mu_r)
         cl_xr = -cl_fr / law.k_r if cl_rcap else cl_xr
-    return cl_fn, cl_ftx, cl_fty, cl_fr, cl_xix, cl_xiy, cl_xr, cl_redo if defer else cl_sliding
+    return (cl_fn, cl_ftx, cl_fty, cl_fr, cl_xix, cl_xiy, cl_xr, cl_hn,
+            cl_redo if defer else cl_sliding)
 
 
 @nb.njit(**INLINE)
-def pair_force(d, a, dv, w, spring, xr, reach, law, o, defer):
+def pair_force(d, a, dv, w, spring, xr, hn, reach, law, o, defer):
     """Disk-disk contact. d = r_i - r_j, a = (a_i, a_j) radii, dv = v_i - v_j, w = (w_i, w_j)
-    spins; spring and xr: the histories (contact_law); reach (m) bounds how far any overlap
+    spins; spring, xr and hn: the histories (contact_law); reach (m) bounds how far any overlap
     can change in half a step (pairs that close get their share of damping). Returns
-    ``(active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, flag)``: force on i (j gets
+    ``(active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, hn, flag)``: force on i (j gets
     -f), torques on i and j, the normal and tangential force on i, the updated histories and
     contact_law's flag. Swapping i and j negates the force bit for bit (every operation is
     odd in the swap)."""
@@ -210,18 +228,18 @@ def pair_force(d, a, dv, w, spring, xr, reach, law, o, defer):
     pf_rs = pf_ai + pf_aj
     pf_lim = pf_rs + reach if o.damping and o.window else pf_rs
     if pf_r2 >= pf_lim * pf_lim:
-        return (False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False)
+        return (False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False)
     pf_dist = math.sqrt(pf_r2)
     pf_inv = 1.0 / pf_dist
     pf_nx = pf_dx * pf_inv
     pf_ny = pf_dy * pf_inv
     pf_delta = pf_rs - pf_dist
     pf_s = pf_ai * pf_wi + pf_aj * pf_wj
-    pf_ared = pf_ai * pf_aj / pf_rs if o.rolling else 0.0
+    pf_ared = pf_ai * pf_aj / pf_rs  # the rolling spring's a' and Hertz's R*
     # v_ij = dv - s (z x n), with z x n = (-ny, nx)
-    pf_fn, pf_ftx, pf_fty, pf_fr, pf_xix, pf_xiy, pf_xr, pf_flag = contact_law(
+    pf_fn, pf_ftx, pf_fty, pf_fr, pf_xix, pf_xiy, pf_xr, pf_hn, pf_flag = contact_law(
         (pf_nx, pf_ny), pf_delta, (pf_dvx + pf_s * pf_ny, pf_dvy - pf_s * pf_nx), spring, xr,
-        pf_ared, w, law, o, defer)
+        hn, pf_ared, w, law, o, defer)
     # torque of f_t about each centre, lever (a - delta/2) along -n for i and +n for j
     pf_nxft = pf_nx * pf_fty - pf_ny * pf_ftx
     pf_ti = -(pf_ai - 0.5 * pf_delta) * pf_nxft
@@ -230,7 +248,7 @@ def pair_force(d, a, dv, w, spring, xr, reach, law, o, defer):
         pf_ti += pf_ared * pf_fr
         pf_tj -= pf_ared * pf_fr
     return (True, pf_fn * pf_nx + pf_ftx, pf_fn * pf_ny + pf_fty, pf_ti, pf_tj, pf_fn, pf_ftx,
-            pf_fty, pf_xix, pf_xiy, pf_xr, pf_flag)
+            pf_fty, pf_xix, pf_xiy, pf_xr, pf_hn, pf_flag)
 
 
 @nb.njit(**INLINE)
@@ -299,16 +317,18 @@ def lane_contact(work, lane, reach, law, o, defer):
             (work[lc_in + lc_e], work[lc_in + lc_e + BATCH]), law.dt)
         work[lc_out + lc_e] = lc_ex
         work[lc_out + lc_e + BATCH] = lc_ey
-    lc_xix = work[lc_in] if o.friction else 0.0
-    lc_xiy = work[lc_in + BATCH] if o.friction else 0.0
+    lc_sp = spring_column(o) * BATCH
+    lc_xix = work[lc_in + lc_sp] if o.friction else 0.0
+    lc_xiy = work[lc_in + lc_sp + BATCH] if o.friction else 0.0
     lc_xr = work[lc_in + rolling_column(o) * BATCH] if o.rolling else 0.0
+    lc_hn = work[lc_in] if normal_width(o) else 0.0
     (lc_act, lc_fxl, lc_fyl, lc_til, lc_tjl, lc_fnl, lc_ftxl, lc_ftyl, lc_xoxl, lc_xoyl, lc_xrl,
-     lc_again) = pair_force(
+     lc_hnl, lc_again) = pair_force(
         (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
         (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
         (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
-        (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]), (lc_xix, lc_xiy), lc_xr, reach,
-        law, o, defer)
+        (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]), (lc_xix, lc_xiy), lc_xr, lc_hn,
+        reach, law, o, defer)
     work[W_FX * BATCH + lane] = lc_fxl
     work[W_FY * BATCH + lane] = lc_fyl
     work[W_TI * BATCH + lane] = lc_til
@@ -317,10 +337,12 @@ def lane_contact(work, lane, reach, law, o, defer):
     work[W_FTX * BATCH + lane] = lc_ftxl
     work[W_FTY * BATCH + lane] = lc_ftyl
     if o.friction:
-        work[lc_out] = lc_xoxl
-        work[lc_out + BATCH] = lc_xoyl
+        work[lc_out + lc_sp] = lc_xoxl
+        work[lc_out + lc_sp + BATCH] = lc_xoyl
     if o.rolling:
         work[lc_out + rolling_column(o) * BATCH] = lc_xrl
+    if normal_width(o):
+        work[lc_out] = lc_hnl
     return lc_act, lc_again
 
 
@@ -336,14 +358,18 @@ def surface_contact(n, delta, a, v, w, hist, i, law, o):
     is ignored)."""
     sc_nx, sc_ny = n
     sc_vx, sc_vy = v
-    sc_xix = hist[i, 0] if o.friction else 0.0
-    sc_xiy = hist[i, 1] if o.friction else 0.0
+    sc_sp = spring_column(o)
+    sc_xix = hist[i, sc_sp] if o.friction else 0.0
+    sc_xiy = hist[i, sc_sp + 1] if o.friction else 0.0
     sc_xr = hist[i, rolling_column(o)] if o.rolling else 0.0
-    sc_fn, sc_ftx, sc_fty, sc_fr, sc_xix, sc_xiy, sc_xr, _ = contact_law(
-        n, delta, v, (sc_xix, sc_xiy), sc_xr, a, w, law, o, False)
+    sc_hn = hist[i, 0] if normal_width(o) else 0.0
+    sc_fn, sc_ftx, sc_fty, sc_fr, sc_xix, sc_xiy, sc_xr, sc_hn, _ = contact_law(
+        n, delta, v, (sc_xix, sc_xiy), sc_xr, sc_hn, a, w, law, o, False)
+    if normal_width(o):
+        hist[i, 0] = sc_hn
     if o.friction:
-        hist[i, 0] = sc_xix
-        hist[i, 1] = sc_xiy
+        hist[i, sc_sp] = sc_xix
+        hist[i, sc_sp + 1] = sc_xiy
     if o.rolling:
         hist[i, rolling_column(o)] = sc_xr
     if o.eta:
@@ -385,12 +411,15 @@ def restitution(k_n: float, gamma_n: float, m_red: float) -> float:
 
 
 @nb.njit(**INLINE)
-def elastic_energy(delta, hist, k, law, o):
-    """Energy (J) stored in a contact with overlap delta and history row k of ``hist``: the
-    normal spring, the tangential spring and the rolling spring."""
-    ee_sum = 0.5 * law.k_n * delta * delta if delta > 0.0 else 0.0
+def elastic_energy(delta, a_red, hist, k, law, o):
+    """Energy (J) stored in a contact with overlap delta, reduced radius a_red (m) and history
+    row k of ``hist``: the normal law, the tangential spring and the rolling spring."""
+    ee_hn = hist[k, 0] if normal_width(o) else 0.0
+    ee_sum = normal_energy(delta, a_red, ee_hn, law, o) if delta > 0.0 else 0.0
     if delta > 0.0 and o.friction:
-        ee_sum += 0.5 * law.k_t * (hist[k, 0] ** 2 + hist[k, 1] ** 2)
+        ee_sp = spring_column(o)
+        ee_sum += 0.5 * tangential_stiffness(delta, a_red, law, o) * (
+            hist[k, ee_sp] ** 2 + hist[k, ee_sp + 1] ** 2)
     if delta > 0.0 and o.rolling:
         ee_sum += 0.5 * law.k_r * hist[k, rolling_column(o)] ** 2
     return ee_sum

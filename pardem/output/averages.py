@@ -17,6 +17,7 @@ import json
 import numpy as np
 
 from ..scene import SceneError
+from ..timestep import normal_stiffness
 from .writers import sample_steps
 
 ARRAYS = ("rings_sums", "rings_times", "rings_inner_torque")
@@ -40,7 +41,8 @@ def make_averager(scene, free_radii: np.ndarray, reducer):
 
     d_ref = cfg.reference_diameter or 2.0 * float(np.mean(free_radii))
     return RingAverager(g.inner_radius, g.outer_radius, ring_width(scene), cfg.weighting,
-                        scene.contact.height, d_ref, scene.contact.k_n, g.omega_inner, reducer)
+                        scene.contact.height, d_ref, normal_stiffness(scene)[1],
+                        g.omega_inner, reducer)
 
 
 def ring_width(scene) -> float:

@@ -1,0 +1,113 @@
+"""The normal slot of the contact model: which elastic law pushes two touching disks apart.
+
+Stage: input (the descriptors) and force kernels (the dispatch). Each choice is one
+``NormalLaw`` descriptor registered in ``LAWS`` under its scene name (``[contact] normal``);
+its compiled kernels live in its own module. The descriptor declares everything the rest of
+pardem needs to know about the law, so that no other module names one:
+
+    keys         its [contact] parameters (declared with units and rules in scene.Contact);
+                 a key of another law is refused, naming the law
+    required     the keys a scene must give when it picks the law
+    history      per-contact history columns the law keeps (before the tangential spring's)
+    coefficients the LawParams fields the kernels read, from the [contact] table
+    stiffness    (k_load, k_elastic, k_t) N/m at the reference overlap of a disk of diameter
+                 d: the linear stiffnesses the time step, the impact-speed checks and the
+                 averaging's normalisation k'_n = k_elastic/h use (the linear law's k_n, k_n,
+                 k_t exactly)
+    tangential   whether the tangential spring's stiffness scales with the contact radius
+                 sqrt(R* delta) (Mindlin: k_t is then a modulus, N/m^2)
+
+The compiled side is three dispatch kernels below (force, tangential stiffness, stored energy),
+each a chain of compile-time tests on ``ContactOptions.normal`` (the law's ``code``): the
+chosen law is inlined, the others are compiled out. Adding a law: its module (descriptor and
+kernels), its entry in ``LAWS`` and its branch in each kernel here, its keys in scene.Contact
+(docs/extending.md walks through the Luding law).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Callable, NamedTuple
+
+import numba as nb
+
+from ..jit import INLINE
+from .laws import normal_elastic
+
+
+class NormalLaw(NamedTuple):
+    """A choice of the normal slot (see the module's docstring)."""
+
+    name: str
+    code: int
+    keys: tuple[str, ...]
+    required: tuple[str, ...]
+    history: tuple[str, ...]
+    coefficients: Callable
+    stiffness: Callable
+    tangential: bool = False
+    check: Callable | None = None
+    summary: str = ""
+
+
+LINEAR = NormalLaw(
+    "linear", 0, ("k_n",), (), (), lambda c: {"k_n": c.k_n, "k_t": c.k_t},
+    lambda c, d: (c.k_n, c.k_n, c.k_t),
+    summary="the paper's linear spring k_n delta (eq. 1.1)")
+
+LAWS: dict[str, NormalLaw] = {LINEAR.name: LINEAR}
+
+
+def law_of(contact) -> NormalLaw:
+    """The descriptor a [contact] table (scene.Contact) picks."""
+    return LAWS[contact.normal]
+
+
+def check_law(c: dict, given) -> None:
+    """SceneError unless the [contact] table ``c`` (every key, defaults filled in) gives the
+    parameters of its normal law and none of another's (``given``: the keys the scene wrote)."""
+    from ..values import fail
+
+    law = LAWS[c["normal"]]
+    for other in LAWS.values():
+        for name in other.keys:
+            if name in given and name not in law.keys:
+                raise fail("[contact]", name, c[name], f'is a parameter of normal = '
+                           f'"{other.name}"; this scene\'s normal law is "{law.name}" (allowed '
+                           f"with it: {', '.join(law.keys)})")
+    if law.tangential and "k_t" in given:
+        raise fail("[contact]", "k_t", c["k_t"], f'normal = "{law.name}" sets the tangential '
+                   "stiffness from its own parameters (Mindlin); remove k_t")
+    for name in law.required:
+        if name not in given:
+            raise fail("[contact]", name, "missing", f'required with normal = "{law.name}"')
+    if law.check is not None:
+        law.check(c)
+
+
+# ----------------------------------------------------------------- compiled dispatch
+
+@nb.njit(**INLINE)
+def normal_width(o):
+    """History columns of the normal law (they come first in a contact's history row)."""
+    return 0
+
+
+@nb.njit(**INLINE)
+def normal_force(delta, a_red, hist, law, o):
+    """``-> (f_n (N), hist)``: the elastic (or hysteretic) normal force at overlap delta (m;
+    0 unless delta > 0) with reduced radius a_red (m), and the law's history after it."""
+    return normal_elastic(delta, law.k_n), hist
+
+
+@nb.njit(**INLINE)
+def tangential_stiffness(delta, a_red, law, o):
+    """The tangential spring's stiffness (N/m) at overlap delta: k_t, or with a law whose
+    ``tangential`` is set, k_t sqrt(a_red delta)."""
+    return law.k_t
+
+
+@nb.njit(**INLINE)
+def normal_energy(delta, a_red, hist, law, o):
+    """Energy (J) the normal law stores at overlap delta > 0."""
+    return 0.5 * law.k_n * delta * delta
