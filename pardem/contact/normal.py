@@ -26,28 +26,11 @@ kernels), its entry in ``LAWS`` and its branch in each kernel here, its keys in 
 
 from __future__ import annotations
 
-import math
-from typing import Callable, NamedTuple
-
 import numba as nb
 
 from ..jit import INLINE
 from .laws import normal_elastic
-
-
-class NormalLaw(NamedTuple):
-    """A choice of the normal slot (see the module's docstring)."""
-
-    name: str
-    code: int
-    keys: tuple[str, ...]
-    required: tuple[str, ...]
-    history: tuple[str, ...]
-    coefficients: Callable
-    stiffness: Callable
-    tangential: bool = False
-    check: Callable | None = None
-    summary: str = ""
+from .slot import NormalLaw
 
 
 LINEAR = NormalLaw(
