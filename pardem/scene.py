@@ -22,7 +22,7 @@ from typing import Any
 
 import numpy as np
 
-from .contact.normal import LAWS
+from .contact.normal import LAWS, foreign_keys
 
 
 class SceneError(ValueError):
@@ -158,6 +158,8 @@ class Contact:
     gamma_t: float = key(0.0, "kg/s", ">=0")
     k_r: float = key(0.0, "N/m", ">=0")
     mu_r: float = key(0.0, "", ">=0")
+    youngs_modulus: float = key(0.0, "Pa", ">0")
+    poisson_ratio: float = key(0.0, "", ">-1 <=0.499")
 
 
 @dataclass(frozen=True)
@@ -284,7 +286,8 @@ class Scene:
         if self.particles is not None:
             cols = [getattr(self.particles, k).tolist() for k in _PCOLS]
             d["particles"] = [dict(zip(_PCOLS, row)) for row in zip(*cols)]
-        d["contact"] = dataclasses.asdict(self.contact)
+        d["contact"] = {k: v for k, v in dataclasses.asdict(self.contact).items()
+                        if k not in foreign_keys(self.contact.normal)}
         d["effects"] = dataclasses.asdict(self.effects)
         t = dataclasses.asdict(self.time)
         d["time"] = {**t, "dt": "auto" if t["dt"] is None else t["dt"]}
@@ -338,7 +341,7 @@ _LATER = {("time", "integrator"): "verlet",
              for key, default in (("wall_count", "auto"), ("wall_diameter", "auto"),
                                   ("flat_surface", True))},
           ("effects", "tangential_damping"): False, ("effects", "rolling_resistance"): False,
-          ("contact", "gamma_t"): 0.0, ("contact", "k_r"): 0.0, ("contact", "mu_r"): 0.0,
+          ("contact", "normal"): "linear", ("contact", "gamma_t"): 0.0, ("contact", "k_r"): 0.0, ("contact", "mu_r"): 0.0,
           ("geometry", "volume_fraction"): "auto"}
 """Keys added after the first release, with their defaults (see Scene.fingerprint)."""
 

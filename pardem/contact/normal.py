@@ -29,6 +29,7 @@ from __future__ import annotations
 import numba as nb
 
 from ..jit import INLINE
+from .hertz import HERTZ, hertz_energy, hertz_force, hertz_tangential
 from .laws import normal_elastic
 from .slot import NormalLaw
 
@@ -38,7 +39,8 @@ LINEAR = NormalLaw(
     lambda c, d: (c.k_n, c.k_n, c.k_t),
     summary="the paper's linear spring k_n delta (eq. 1.1)")
 
-LAWS: dict[str, NormalLaw] = {LINEAR.name: LINEAR}
+LAWS: dict[str, NormalLaw] = {law.name: law for law in (LINEAR, HERTZ)}
+HERTZ_CODE = HERTZ.code  # the kernels compare ints (numba does not read a descriptor)
 
 
 def law_of(contact) -> NormalLaw:
@@ -46,9 +48,18 @@ def law_of(contact) -> NormalLaw:
     return LAWS[contact.normal]
 
 
+def foreign_keys(name: str) -> set[str]:
+    """The [contact] keys a scene with ``normal = name`` may not give: the other laws'
+    parameters, and k_t where the law sets the tangential stiffness itself."""
+    law = LAWS[name]
+    return ({k for other in LAWS.values() for k in other.keys if k not in law.keys}
+            | ({"k_t"} if law.tangential else set()))
+
+
 def check_law(c: dict, given) -> None:
     """SceneError unless the [contact] table ``c`` (every key, defaults filled in) gives the
     parameters of its normal law and none of another's (``given``: the keys the scene wrote)."""
+    from ..scene import SceneError
     from ..values import fail
 
     law = LAWS[c["normal"]]
@@ -56,14 +67,14 @@ def check_law(c: dict, given) -> None:
         for name in other.keys:
             if name in given and name not in law.keys:
                 raise fail("[contact]", name, c[name], f'is a parameter of normal = '
-                           f'"{other.name}"; this scene\'s normal law is "{law.name}" (allowed '
-                           f"with it: {', '.join(law.keys)})")
+                           f'"{other.name}"; this scene\'s normal law is "{law.name}" (its own '
+                           f"parameters: {', '.join(law.keys)})")
     if law.tangential and "k_t" in given:
         raise fail("[contact]", "k_t", c["k_t"], f'normal = "{law.name}" sets the tangential '
                    "stiffness from its own parameters (Mindlin); remove k_t")
     for name in law.required:
         if name not in given:
-            raise fail("[contact]", name, "missing", f'required with normal = "{law.name}"')
+            raise SceneError(f'[contact] {name}: missing (required with normal = "{law.name}")')
     if law.check is not None:
         law.check(c)
 
@@ -80,6 +91,8 @@ def normal_width(o):
 def normal_force(delta, a_red, hist, law, o):
     """``-> (f_n (N), hist)``: the elastic (or hysteretic) normal force at overlap delta (m;
     0 unless delta > 0) with reduced radius a_red (m), and the law's history after it."""
+    if o.normal == HERTZ_CODE:
+        return hertz_force(delta, a_red, law), hist
     return normal_elastic(delta, law.k_n), hist
 
 
@@ -87,10 +100,14 @@ def normal_force(delta, a_red, hist, law, o):
 def tangential_stiffness(delta, a_red, law, o):
     """The tangential spring's stiffness (N/m) at overlap delta: k_t, or with a law whose
     ``tangential`` is set, k_t sqrt(a_red delta)."""
+    if o.normal == HERTZ_CODE:
+        return hertz_tangential(delta, a_red, law)
     return law.k_t
 
 
 @nb.njit(**INLINE)
 def normal_energy(delta, a_red, hist, law, o):
     """Energy (J) the normal law stores at overlap delta > 0."""
+    if o.normal == HERTZ_CODE:
+        return hertz_energy(delta, a_red, law)
     return 0.5 * law.k_n * delta * delta

@@ -1,0 +1,124 @@
+"""The normal slot's laws against independent computations: head-on collisions of two disks
+timed by pardem (testing.measure) and compared with the law's own equation of motion solved
+here, plus the scene interface of each law (keys of another law refused)."""
+
+import math
+import tomllib
+
+import numpy as np
+import pytest
+
+from pardem.contact.model import ContactOptions, LawParams, contact_law
+from pardem.scene import SceneError, scene_to_toml
+from pardem.schema import scene_from_dict
+from pardem.simulation import Simulation
+from pardem.testing import measure
+
+D, M, V = 0.01, 1e-3, 0.1  # diameter (m), mass (kg), approach speed (m/s) of the two disks
+E, NU = 1e7, 0.3  # Young's modulus (Pa), Poisson's ratio
+E_STAR = E / (2 * (1 - NU**2))
+R_STAR, M_RED = D / 4, M / 2
+
+
+def collision(contact: dict, dt: float, damping: bool = False):
+    """Two equal disks meeting head on at V; ``(sim, overlap, approach)`` as testing.two_disks."""
+    ps = [{"x": -(D + 1e-5) / 2, "y": 0.0, "vx": V / 2, "diameter": D, "mass": M},
+          {"x": (D + 1e-5) / 2, "y": 0.0, "vx": -V / 2, "diameter": D, "mass": M}]
+    effects = {"normal_damping": damping, "tangential_friction": False, "rotation": False,
+               "bottom_friction": False}
+    sim = Simulation(scene_from_dict({
+        "scene": {"name": "two-disks", "kind": "free"}, "particles": ps, "effects": effects,
+        "contact": contact, "time": {"dt": dt, "end": 1.0}}))
+
+    def overlap(s):
+        x = s.gathered("position")["position"]
+        return D - (x[1, 0] - x[0, 0])
+
+    def approach(s):
+        v = s.gathered("velocity")["velocity"]
+        return v[0, 0] - v[1, 0]
+
+    return sim, overlap, approach
+
+
+def hertz_contact_time() -> float:
+    """The undamped Hertz collision's duration from energy conservation (independent of the
+    code): m_red v^2/2 = (8/15) E* sqrt(R*) delta^(5/2) at the deepest overlap delta_m, and
+    t_c = 2 (delta_m/v) int_0^1 dx / sqrt(1 - x^(5/2)), the integral by the trapezoid rule
+    after x = 1 - u^2 (which removes the end point's singularity)."""
+    delta_m = (15 * M_RED * V**2 / (16 * E_STAR * math.sqrt(R_STAR))) ** 0.4
+    u = np.linspace(1e-6, 1.0, 200_001)
+    integrand = 2 * u / np.sqrt(1 - (1 - u * u) ** 2.5)
+    integral = float(np.sum(0.5 * (integrand[1:] + integrand[:-1]) * np.diff(u)))
+    return 2 * delta_m / V * integral
+
+
+HERTZ = {"normal": "hertz", "youngs_modulus": E, "poisson_ratio": NU}
+
+
+def test_hertz_collision_time_restitution_and_energy():
+    t_ref = hertz_contact_time()
+    # the textbook constant: t_c = 2.8683 (m_red^2/(R* E*^2 v))^(1/5) for this force law
+    assert t_ref == pytest.approx(2.8683 * (M_RED**2 / (R_STAR * E_STAR**2 * V)) ** 0.2, rel=1e-4)
+    sim, overlap, approach = collision(HERTZ, dt=1e-6)
+    e0 = sim.total_energy()
+    t_c, e_n = measure(sim, overlap, approach)
+    assert t_c == pytest.approx(t_ref, rel=2e-3)
+    assert e_n == pytest.approx(1.0, abs=1e-3)
+    assert sim.total_energy() == pytest.approx(e0, rel=1e-3)
+
+
+def test_hertz_energy_is_conserved_during_the_contact():
+    sim, overlap, _ = collision(HERTZ, dt=1e-6)
+    e0 = sim.total_energy()
+    deepest, worst = 0.0, 0.0
+    for _ in range(2500):
+        sim.advance_steps(1)
+        deepest = max(deepest, overlap(sim))
+        worst = max(worst, abs(sim.total_energy() / e0 - 1))
+    # the overlap went to the depth energy conservation predicts, the stored energy counted
+    delta_m = (15 * M_RED * V**2 / (16 * E_STAR * math.sqrt(R_STAR))) ** 0.4
+    assert deepest == pytest.approx(delta_m, rel=1e-3)
+    assert worst < 1e-3
+
+
+def test_hertz_tangential_stiffness_follows_the_contact_radius():
+    """Mindlin: k_t = 8 G* sqrt(R* delta), G* = G/(2 (2 - nu)), G = E/(2 (1 + nu)); a sticking
+    spring after one step of tangential velocity u carries f_t = k_t u dt."""
+    from pardem.contact.model import law_params
+    from pardem.scene import Contact
+
+    law = law_params(Contact(**HERTZ), 1e-5)
+    g_star = E / (2 * (1 + NU)) / (2 * (2 - NU))
+    for delta in (1e-6, 4e-6):
+        out = contact_law((1.0, 0.0), delta, (0.0, 1e-3), (0.0, 0.0), 0.0, 0.0, R_STAR,
+                          (0.0, 0.0), law, ContactOptions(damping=False, normal=1), False)
+        k_t = 8 * g_star * math.sqrt(R_STAR * delta)
+        assert out[2] == pytest.approx(-k_t * 1e-3 * 1e-5, rel=1e-12)
+        assert out[0] == pytest.approx(4 / 3 * E_STAR * math.sqrt(R_STAR) * delta**1.5,
+                                       rel=1e-12)
+
+
+@pytest.mark.parametrize("extra, message", [
+    ({"k_n": 100.0}, 'k_n = 100.0: is a parameter of normal = "linear"'),
+    ({"k_t": 100.0}, 'normal = "hertz" sets the tangential stiffness'),
+])
+def test_a_key_of_another_law_is_refused_with_the_law_named(extra, message):
+    with pytest.raises(SceneError, match=message):
+        collision({**HERTZ, **extra}, dt=1e-6)
+
+
+def test_hertz_parameters_with_the_linear_law_are_refused():
+    with pytest.raises(SceneError, match='youngs_modulus = 10000000.0: is a parameter of '
+                                         'normal = "hertz"; this scene\'s normal law is "linear"'):
+        collision({"youngs_modulus": E}, dt=1e-6)
+    with pytest.raises(SceneError, match=r'poisson_ratio: missing \(required with normal = '
+                                         r'"hertz"\)'):
+        collision({"normal": "hertz", "youngs_modulus": E}, dt=1e-6)
+
+
+def test_a_hertz_scene_round_trips_through_its_toml():
+    sim, _, _ = collision(HERTZ, dt=1e-6)
+    text = scene_to_toml(sim.scene)
+    assert scene_from_dict(tomllib.loads(text)).to_dict() == sim.scene.to_dict()
+    assert "k_n" not in tomllib.loads(text)["contact"]
