@@ -160,6 +160,8 @@ class Contact:
     mu_r: float = key(0.0, "", ">=0")
     youngs_modulus: float = key(0.0, "Pa", ">0")
     poisson_ratio: float = key(0.0, "", ">-1 <=0.499")
+    k_unload: float = key(0.0, "N/m", ">0")
+    k_adhesion: float = key(0.0, "N/m", ">=0")
 
 
 @dataclass(frozen=True)

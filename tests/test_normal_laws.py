@@ -122,3 +122,79 @@ def test_a_hertz_scene_round_trips_through_its_toml():
     text = scene_to_toml(sim.scene)
     assert scene_from_dict(tomllib.loads(text)).to_dict() == sim.scene.to_dict()
     assert "k_n" not in tomllib.loads(text)["contact"]
+
+
+K1 = 352.1  # loading stiffness (N/m), the paper's k_n
+
+
+def luding(k2: float, kc: float) -> dict:
+    return {"normal": "luding", "k_n": K1, "k_unload": k2, "k_adhesion": kc}
+
+
+def luding_restitution(k2: float, kc: float) -> float:
+    """e = sqrt(a - (1 - a)^2 (k_2/k_1) k_c/(k_2 + k_c)), a = k_1/k_2 (Luding 2008), from the
+    work along the loading, unloading and tension branches."""
+    a = K1 / k2
+    return math.sqrt(a - (1 - a) ** 2 * (k2 / K1) * kc / (k2 + kc))
+
+
+@pytest.mark.parametrize("k2, kc", [(2 * K1, 0.0), (2 * K1, 0.5 * K1), (5 * K1, 0.2 * K1),
+                                    (K1, 0.0)])
+def test_luding_restitution_without_damping(k2, kc):
+    # k_c = 0: e = sqrt(k_1/k_2); k_2 = k_1: elastic, e = 1
+    expected = luding_restitution(k2, kc)
+    if kc == 0:
+        assert expected == pytest.approx(math.sqrt(K1 / k2), rel=1e-14)
+    t_load = math.pi / 2 * math.sqrt(M_RED / K1)
+    sim, overlap, approach = collision(luding(k2, kc), dt=t_load / 2000)
+    _, e_n = measure(sim, overlap, approach)
+    assert e_n == pytest.approx(expected, abs=2e-3)
+
+
+def test_luding_captures_a_pair_when_damping_is_on():
+    """k_2 = 2 k_1, k_c = 2 k_1: undamped the pair still separates (e^2 = 1/4); with damping
+    of e_n ~ 0.3 in the linear law (gamma_n = 0.3 kg/s) it loses more than the adhesion lets go, and stays
+    together, oscillating down into the well of the tension branch."""
+    params = luding(2 * K1, 2 * K1)
+    assert luding_restitution(2 * K1, 2 * K1) == pytest.approx(0.5)
+    dt = math.pi / 2 * math.sqrt(M_RED / K1) / 1000
+    sim, overlap, approach = collision(params, dt=dt)
+    _, e_n = measure(sim, overlap, approach)
+    assert e_n == pytest.approx(0.5, abs=3e-3)
+    sim, overlap, _ = collision({**params, "gamma_n": 0.3}, dt=dt, damping=True)
+    overlaps = []
+    for _ in range(40):
+        sim.advance_steps(500)
+        overlaps.append(overlap(sim))
+    assert min(overlaps[2:]) > 0  # touching from the first contact on, for ~10 t_c
+    assert abs(sim.gathered("velocity")["velocity"][0, 0]) < 0.02 * V / 2
+
+
+def test_luding_unloading_path_by_hand():
+    """Load to 1 mm, unload to 0.6 mm and 0.1 mm, reload to 0.8 mm: the branches' forces."""
+    from pardem.contact.model import law_params
+    from pardem.scene import Contact
+
+    k2, kc = 2 * K1, 0.5 * K1
+    law = law_params(Contact(**luding(k2, kc)), 1e-5)
+    o = ContactOptions(damping=False, friction=False, normal=2)
+    d0 = 0.5e-3  # (1 - k_1/k_2) delta_max
+    hn, forces = 0.0, []
+    for delta in (0.5e-3, 1e-3, 0.6e-3, 0.1e-3, 0.8e-3):
+        out = contact_law((1.0, 0.0), delta, (0.0, 0.0), (0.0, 0.0), 0.0, hn, R_STAR,
+                          (0.0, 0.0), law, o, False)
+        hn = out[7]
+        forces.append(out[0])
+    # at 0.1 mm k_2 (delta - d0) = -0.2816 N pulls harder than -k_c delta = -0.0176 N: capped,
+    # delta_max moves to delta (k_2 + k_c)/(k_2 - k_1) = 0.25 mm; reloading to 0.8 mm passes it
+    expected = [K1 * 0.5e-3, K1 * 1e-3, k2 * (0.6e-3 - d0), -kc * 0.1e-3, K1 * 0.8e-3]
+    assert forces == pytest.approx(expected, rel=1e-12)
+
+
+def test_luding_keys_are_checked():
+    with pytest.raises(SceneError, match="k_unload = 100.0: must be >= k_n = 352.1"):
+        collision(luding(100.0, 0.0), dt=1e-6)
+    with pytest.raises(SceneError, match=r'k_unload: missing \(required with normal = "luding"'):
+        collision({"normal": "luding"}, dt=1e-6)
+    with pytest.raises(SceneError, match='k_unload = 700.0: is a parameter of normal = "luding"'):
+        collision({**HERTZ, "k_unload": 700.0}, dt=1e-6)

@@ -31,6 +31,7 @@ import numba as nb
 from ..jit import INLINE
 from .hertz import HERTZ, hertz_energy, hertz_force, hertz_tangential
 from .laws import normal_elastic
+from .luding import LUDING, luding_energy, luding_force
 from .slot import NormalLaw
 
 
@@ -39,8 +40,9 @@ LINEAR = NormalLaw(
     lambda c, d: (c.k_n, c.k_n, c.k_t),
     summary="the paper's linear spring k_n delta (eq. 1.1)")
 
-LAWS: dict[str, NormalLaw] = {law.name: law for law in (LINEAR, HERTZ)}
+LAWS: dict[str, NormalLaw] = {law.name: law for law in (LINEAR, HERTZ, LUDING)}
 HERTZ_CODE = HERTZ.code  # the kernels compare ints (numba does not read a descriptor)
+LUDING_CODE = LUDING.code
 
 
 def law_of(contact) -> NormalLaw:
@@ -84,7 +86,7 @@ def check_law(c: dict, given) -> None:
 @nb.njit(**INLINE)
 def normal_width(o):
     """History columns of the normal law (they come first in a contact's history row)."""
-    return 0
+    return 1 if o.normal == LUDING_CODE else 0
 
 
 @nb.njit(**INLINE)
@@ -93,6 +95,8 @@ def normal_force(delta, a_red, hist, law, o):
     0 unless delta > 0) with reduced radius a_red (m), and the law's history after it."""
     if o.normal == HERTZ_CODE:
         return hertz_force(delta, a_red, law), hist
+    if o.normal == LUDING_CODE:
+        return luding_force(delta, hist, law)
     return normal_elastic(delta, law.k_n), hist
 
 
@@ -110,4 +114,6 @@ def normal_energy(delta, a_red, hist, law, o):
     """Energy (J) the normal law stores at overlap delta > 0."""
     if o.normal == HERTZ_CODE:
         return hertz_energy(delta, a_red, law)
+    if o.normal == LUDING_CODE:
+        return luding_energy(delta, hist, law)
     return 0.5 * law.k_n * delta * delta
