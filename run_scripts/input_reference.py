@@ -15,6 +15,7 @@ import sys
 from dataclasses import MISSING
 from pathlib import Path
 
+from pardem.contact.normal import LAWS
 from pardem.scene import (AveragingCfg, Contact, Effects, FreeParticles, Geometry, Neighbors,
                           OutputCfg, SceneInfo, Species, TimeCfg, _PUNITS)
 
@@ -85,6 +86,22 @@ def _doc(cls: type) -> str:
     return " ".join(inspect.cleandoc(cls.__doc__ or "").split())
 
 
+def _normal_laws() -> str:
+    """The choices of ``[contact] normal``, from their descriptors (contact.normal.LAWS)."""
+    rows = [f"| `\"{law.name}\"` | {law.summary} | "
+            + (", ".join(f"`{k}`" for k in law.keys) or "–") + " | "
+            + (", ".join(f"`{k}`" for k in law.required) or "–") + " | "
+            + (", ".join(f"`{k}`" for k in law.history) or "–") + " |"
+            for law in LAWS.values()]
+    return ("### The normal laws (`normal`)\n\nEach law takes only its own parameters: a key of "
+            "another law is refused, naming the law. A law that sets the tangential stiffness "
+            "itself (Mindlin) refuses `k_t`. The time step, the impact-speed checks and the "
+            "averaging's k'_n use the law's linear stiffness at its reference overlap "
+            "(docs/extending.md).\n\n"
+            "| normal | law | its parameters | required | history per contact |\n"
+            "|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
+
+
 def render() -> str:
     parts = [INTRO]
     for name, cls, when in TABLES:
@@ -97,6 +114,8 @@ def render() -> str:
         parts.append(f"## `{name}`\n\n*{when}*\n\n{_doc(cls)}\n\n"
                      "| key | kind | unit | default | allowed |\n|---|---|---|---|---|\n"
                      + "\n".join(rows) + "\n")
+        if cls is Contact:
+            parts.append(_normal_laws())
     prows = "\n".join(f"| `{k}` | {u} | {'0' if k in ('vx', 'vy', 'omega') else 'required'} |"
                       for k, u in _PUNITS.items())
     parts.append(FREE.format(rows=prows, doc=_doc(FreeParticles)))

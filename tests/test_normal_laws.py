@@ -8,7 +8,7 @@ import tomllib
 import numpy as np
 import pytest
 
-from pardem.contact.model import ContactOptions, LawParams, contact_law
+from pardem.contact.model import ContactOptions, contact_law
 from pardem.scene import SceneError, scene_to_toml
 from pardem.schema import scene_from_dict
 from pardem.simulation import Simulation
