@@ -13,10 +13,12 @@ from pathlib import Path
 
 from pardem.output.averages import ring_width as default_ring_width
 from pardem.output.snapshots import read_snapshots
-from pardem.scene import SceneError, load_scene
+from pardem.scene import SceneError
+from pardem.scene_file import load_scene
 from pardem.output.writers import is_sample_step, sample_range
 from pardem.schema import ring_width_problem
-from pardem.timestep import normal_stiffness, resolve_dt
+from pardem.scales import normal_stiffness
+from pardem.timestep import resolve_dt
 
 from .sample import snapshot_sample
 from .timeavg import RingAverager

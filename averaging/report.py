@@ -39,9 +39,9 @@ from pathlib import Path
 
 import numpy as np
 
-from pardem.scene import load_scene
+from pardem.scene_file import load_scene
 from pardem.check import volume_fraction
-from pardem.timestep import normal_stiffness
+from pardem.scales import normal_stiffness
 
 from .derived import exponential_fit, log_exponential_fit
 from .io import read_rings

@@ -11,8 +11,11 @@ from __future__ import annotations
 
 
 from .memory import needed_bytes, particle_count, size_text
-from .scene import Scene, scene_to_toml
-from .timestep import off_step_text, resolve_step, smallest_contact_time, stability_limit
+from .scene import Scene
+from .scene_file import scene_to_toml
+from .scales import smallest_contact_time
+from .stability import stability_limit
+from .timestep import off_step_text, resolve_step
 from .walls import global_volume_fraction
 
 REFERENCE_RATE = 25e6

@@ -105,7 +105,8 @@ def main(argv: list[str] | None = None) -> int:
         return _warmup(args)
     t_start = time.perf_counter()
     from .parallel import abort, world
-    from .scene import SceneError, load_scene
+    from .scene import SceneError
+    from .scene_file import load_scene
     from .simulation import Simulation, SimulationError
     from .stop import Interrupted, catching_signals
 
@@ -189,7 +190,8 @@ def _warmup(args) -> int:
     import tempfile
 
     from .parallel import abort, world
-    from .scene import SceneError, load_scene
+    from .scene import SceneError
+    from .scene_file import load_scene
     from .warmup import warm_up
 
     comm = world()
@@ -224,7 +226,8 @@ def _warmup(args) -> int:
 
 def _check(args) -> int:
     from .check import describe
-    from .scene import SceneError, load_scene
+    from .scene import SceneError
+    from .scene_file import load_scene
 
     try:
         print(describe(load_scene(args.scene)))

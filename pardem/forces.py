@@ -19,9 +19,10 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from .contact.model import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX,
-                            W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, history_width,
-                            lane_contact, work_size)
+from .contact.lanes import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX,
+                            W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, lane_contact,
+                            work_size)
+from .contact.model import history_width
 from .contact.overlap import lane_overlap, note_deep, too_deep
 from .jit import INLINE, JIT
 from .ring_forces import ring_contacts
@@ -57,7 +58,7 @@ def select_below(n_pairs):
 class ForceWork(NamedTuple):
     """What contact_forces keeps from call to call within one pair list.
 
-    rows: the law's work rows (model.work_size), whose last two elements keep the loop's
+    rows: the law's work rows (lanes.work_size), whose last two elements keep the loop's
     choice: the fraction of pairs with a force and the calls since it was counted.
     live [2, cap] int32, n_live [2] int64: the pairs selected_pairs gave to the law at its
     last call (row n_live[0], n_live[1] of them, in list order), or n_live[0] = -1 when
@@ -96,7 +97,7 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
     square root and divisions, with 1-2 pairs in flight): every listed pair (every_pair), or
     only those close enough to have a force this step (selected_pairs), whichever the fraction
     of pairs with a force favours. Both give the same bits. ``work``: a flat
-    (model.work_size) float array, kept from call to call. ``record``: store the applied
+    (lanes.work_size) float array, kept from call to call. ``record``: store the applied
     forces (Pairs.fn, ft, wall_fn, wall_ft), which only output and averaging read, so the step
     loop asks for them at the last step of a call only (stored every step, they cost ~8 % of
     the step: 24 bytes per pair of extra memory traffic)."""

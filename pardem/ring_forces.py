@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numba as nb
 
-from .contact.model import MAX_OVERLAP, history_width, surface_contact
+from .contact.model import history_width, surface_contact
+from .contact.overlap import MAX_OVERLAP
 from .contact.overlap import note_deep
 from .jit import JIT
 from .walls import outer_radius, ring_surface

@@ -1,11 +1,10 @@
 """Scene description: the validated input of a pardem run.
 
-Stage: input. ``load_scene`` reads a TOML scene file (every key: docs/input.md, generated from
-here) and returns a ``Scene`` made of frozen, validated dataclasses; nothing downstream
-re-checks them.
+Stage: input. A ``Scene`` is made of frozen, validated dataclasses (every key: docs/input.md,
+generated from here); nothing downstream re-checks them.
 The checks are in ``schema.py`` (``scene_from_dict``; free particles in ``particles_input.py``).
 Every problem raises ``SceneError`` with one message naming the offending ``[table] key``.
-``scene_to_toml`` / ``write_scene`` write a scene back (the resolved scene stored with a run).
+Reading and writing scene files: ``scene_file.py``.
 Units are SI throughout: m, kg, s, rad, N.
 """
 
@@ -14,19 +13,13 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-import os
-import tomllib
 from dataclasses import MISSING, dataclass, field
-from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from .contact.normal import LAWS, foreign_keys
-
-
-class SceneError(ValueError):
-    """An invalid scene; the message names the table and key at fault."""
+from .errors import SceneError  # noqa: F401  (importers of the scene types read it here)
 
 
 def key(default: Any = MISSING, unit: str = "", rule: str = ""):
@@ -343,64 +336,7 @@ _LATER = {("time", "integrator"): "verlet",
              for key, default in (("wall_count", "auto"), ("wall_diameter", "auto"),
                                   ("flat_surface", True))},
           ("effects", "tangential_damping"): False, ("effects", "rolling_resistance"): False,
-          ("contact", "normal"): "linear", ("contact", "gamma_t"): 0.0, ("contact", "k_r"): 0.0, ("contact", "mu_r"): 0.0,
+          ("contact", "normal"): "linear", ("contact", "gamma_t"): 0.0, ("contact", "k_r"): 0.0,
+          ("contact", "mu_r"): 0.0,
           ("geometry", "volume_fraction"): "auto"}
 """Keys added after the first release, with their defaults (see Scene.fingerprint)."""
-
-
-def load_scene(path: str | Path) -> Scene:
-    """Read and validate a TOML scene file; errors are prefixed with the file path."""
-    p = Path(path)
-    if not p.is_file():
-        raise SceneError(f"{p}: no such scene file")
-    try:
-        raw = tomllib.loads(p.read_text(encoding="utf-8"))
-    except (tomllib.TOMLDecodeError, UnicodeDecodeError) as e:
-        raise SceneError(f"{p}: malformed TOML: {e}") from None
-    try:
-        return scene_from_dict(raw, base_dir=p.parent, source=str(p))
-    except SceneError as e:
-        raise SceneError(f"{p}: {e}") from None
-
-
-# ---------------------------------------------------------------- TOML output
-
-def _toml_value(v: Any) -> str:
-    if isinstance(v, bool):
-        return "true" if v else "false"
-    if isinstance(v, int):
-        return str(v)
-    if isinstance(v, float):
-        return repr(v)  # shortest repr round-trips exactly; inf/nan are refused on input
-    chars = []
-    for ch in str(v):
-        if ch in '"\\':
-            chars.append("\\" + ch)
-        elif ord(ch) < 0x20 or ord(ch) == 0x7F:
-            chars.append(f"\\u{ord(ch):04x}")
-        else:
-            chars.append(ch)
-    return '"' + "".join(chars) + '"'
-
-
-def scene_to_toml(scene: Scene) -> str:
-    """The scene as TOML text with every key written; ``load_scene`` of it gives an equal
-    ``to_dict()``."""
-    out = [f"# pardem scene (SI units: m, kg, s, rad); kind = {scene.info.kind}"]
-    for name, body in scene.to_dict().items():
-        rows = body if isinstance(body, list) else [body]
-        head = f"[[{name}]]" if isinstance(body, list) else f"[{name}]"
-        for row in rows:
-            out += ["", head] + [f"{k} = {_toml_value(v)}" for k, v in row.items()]
-    return "\n".join(out) + "\n"
-
-
-def write_scene(scene: Scene, path: str | Path) -> None:
-    """Write ``scene_to_toml(scene)`` atomically (temporary file, then ``os.replace``)."""
-    p = Path(path)
-    tmp = p.with_name(p.name + ".tmp")
-    tmp.write_text(scene_to_toml(scene), encoding="utf-8")
-    os.replace(tmp, p)
-
-
-from .schema import scene_from_dict  # noqa: E402  (the checks build on the types above)

@@ -43,7 +43,8 @@ from .placement import initial_configuration, rank_share
 from .neighbors import WALL_SKINS
 from .rebuild import place_idle_walls, rebuild, rebuild_on_request
 from . import stop
-from .scene import Scene, SceneError, write_scene
+from .scene import Scene, SceneError
+from .scene_file import write_scene
 from .state import Params, new_clock, new_pairs
 from .step import (BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP, StepOptions,
                    make_stepper)

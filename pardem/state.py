@@ -133,7 +133,7 @@ class Clock(NamedTuple):
     disp[0] (m): the largest displacement of a free particle since the previous neighbour
     build plus the outer ring's move, over all ranks, at the step that asked for the latest
     build (diagnostics; exchanges are decided from positions, Decomposition.exchange_due).
-    deep (float array [4]): the first overlap beyond contact.model.MAX_OVERLAP on this rank,
+    deep (float array [4]): the first overlap beyond contact.overlap.MAX_OVERLAP on this rank,
     (t s, gid of i, gid of j or -1/-2 for the inner/outer ring surface, overlap over the
     smaller diameter); t < 0: none. The step loop stops every rank at the next step.
     """

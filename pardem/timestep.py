@@ -1,19 +1,16 @@
-"""Time step from the analytic contact time of the linear spring-dashpot (SPEC §3;
-contact.model.contact_time), with the normal law's linear stiffness (``normal_stiffness``). The default step is t_c(smallest pair) / dt_per_contact, shortened
-by at most 1 % so that a whole number of steps fills a power of ten of a second (``time_quantum``):
+"""The run's time step: t_c(smallest pair) / dt_per_contact (scales.py), shortened by at most
+1 % so that a whole number of steps fills a power of ten of a second (``time_quantum``):
 output asked for at multiples of it lands at exactly the times the scene names. A step above
-``stability_limit`` is refused: t_c/5, or less where a mode of the densest packing the effects
-enable would grow (``contact_modes``). A run's clock is the step count times
+stability.stability_limit is refused. A run's clock is the step count times
 ``resolve_step``'s exact fraction of a second, so that 0.15 s prints as 0.15.
 
-The linear spring resolves a contact in time independently of the impact speed, but the overlap
-grows with it: a disk hit head-on at approach speed u overlaps its partner by up to
-u sqrt(m_red/k_n) (m_red = m against an infinitely massive ring). Ring speeds and free disks'
-speeds that would push that beyond MAX_IMPACT_OVERLAP (contact.model.MAX_OVERLAP) of the
-smaller diameter are refused: disks would pass through each other (a run that gets there
+An impact's overlap grows with its speed: a disk hit head-on at approach speed u overlaps its
+partner by up to u sqrt(m_red/k) for the normal law's loading stiffness k
+(scales.normal_stiffness; m_red = m against an infinitely massive ring). Ring speeds and free
+disks' speeds that would push that beyond MAX_IMPACT_OVERLAP (contact.overlap.MAX_OVERLAP) of
+the smaller diameter are refused: disks would pass through each other (a run that gets there
 anyway stops, step.py). Units SI: N/m, kg/s, kg, s.
 """
-
 from __future__ import annotations
 
 import math
@@ -21,70 +18,14 @@ from fractions import Fraction
 
 import numpy as np
 
-from .contact import model
-from .contact.model import MAX_OVERLAP
-from .contact.normal import law_of
+from .contact.overlap import MAX_OVERLAP
+from .scales import (free_disks, normal_stiffness, smallest_contact_time,
+                     smallest_reduced_mass)
 from .scene import Scene, SceneError
-
-
-def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
-    """t_c (s) of the damped normal spring; SceneError when the contact is overdamped."""
-    try:
-        return model.contact_time(k_n, gamma_n, m_red)
-    except ValueError as e:
-        raise SceneError(f"[contact] gamma_n = {gamma_n!r}: {e} for reduced mass {m_red:.4g} "
-                         "kg; a contact never ends, so there is no t_c (kg/s)") from None
-
-
-def smallest_reduced_mass(scene: Scene) -> float:
-    """Smallest reduced mass (kg) over pairs of free particles: that of the two lightest ones.
-
-    A lighter partner always lowers m_red, so the two lightest particles decide; one particle of a
-    species cannot pair with itself. With a single free particle the only partners are walls
-    (infinitely massive), so m_red = m.
-    """
-    if scene.particles is not None:
-        m = np.asarray(scene.particles.mass)
-        if m.size == 1:
-            return float(m[0])
-        a, b = np.partition(m, 1)[:2]
-    else:
-        ms = sorted((s.mass, s.count) for s in scene.species if s.count > 0)
-        if ms[0][1] >= 2:
-            a = b = ms[0][0]
-        elif len(ms) > 1:
-            a, b = ms[0][0], ms[1][0]
-        else:
-            return float(ms[0][0])
-    return float(a * b / (a + b))
-
-
-def normal_stiffness(scene: Scene) -> tuple[float, float, float]:
-    """(k_load, k_elastic, k_t) N/m: the linear stiffnesses of the scene's contact law at its
-    reference overlap of the largest free disk (contact.normal.NormalLaw.stiffness; k_n, k_n,
-    k_t for the linear law). k_load sets how deep an impact goes, k_elastic (the stiffer,
-    reversible branch) the contact time, the stable step and the averaging's k'_n."""
-    c = scene.contact
-    return law_of(c).stiffness(c, max(d for d, _ in free_disks(scene)))
-
-
-def smallest_contact_time(scene: Scene) -> float:
-    """t_c (s) of the pair with the smallest reduced mass; gamma_n counts only if the scene
-    switches normal damping on."""
-    c = scene.contact
-    gamma = c.gamma_n if scene.effects.normal_damping else 0.0
-    return contact_time(normal_stiffness(scene)[1], gamma, smallest_reduced_mass(scene))
+from .stability import stability_limit
 
 
 MAX_IMPACT_OVERLAP = MAX_OVERLAP  # of the smaller diameter of a contact
-
-
-def free_disks(scene: Scene) -> list[tuple[float, float]]:
-    """(diameter m, mass kg) of every kind of free disk in the scene."""
-    if scene.particles is not None:
-        return list(zip(np.asarray(scene.particles.diameter, float),
-                        np.asarray(scene.particles.mass, float)))
-    return [(s.diameter, s.mass) for s in scene.species if s.count > 0]
 
 
 def check_wall_speeds(scene: Scene) -> None:
@@ -192,114 +133,6 @@ def check_free_speeds(scene: Scene, dt: float) -> None:
             f"(velocity and spin at its rim), {per_step[i]:.3g} diameters per step of "
             f"{dt:.4g} s: it could pass through another "
             f"disk between two steps; at most {0.5 * p.diameter[i] / dt:.3g} m/s at this dt")
-
-
-STEPS_PER_CONTACT = 5.0
-"""Resolution: at least five steps per contact time t_c of the lightest pair. Fewer steps leave
-a collision to two or three force samples, and the energy of an elastic gas drifts although
-no mode is unstable (docs/accuracy.md, "Stability limit")."""
-
-PACKING_CONTACTS = 6
-"""Contacts of a disk in the densest packing of equal disks (hexagonal): the stiffest modes of
-any packing are bounded by those of this one (Rayleigh quotient; exact for the hexagonal
-packing, see ``contact_modes``)."""
-
-
-def mode_step_limit(w_verlet2: float, w_explicit2: float, c: float) -> float:
-    """The largest stable step (s) of one mode x'' = -w_v^2 x - w_e^2 xi - c x' under pardem's
-    velocity Verlet: x from the half-step velocity (symplectic), the damping c (1/s) and the
-    spring xi (incremented by the velocity, xi' = x') from the velocity predicted at the end
-    of the step. Its amplification matrix gets the eigenvalue -1 where (w_v^2 + 2 w_e^2) dt^2
-    + 4 c dt = 4, and no other boundary is crossed first (checked against its spectral radius
-    in tests/hard/test_stability_hard.py), so dt* = 2 (sqrt(c^2 + W^2) - c)/W^2 with W^2 =
-    w_v^2 + 2 w_e^2: 2/w for Verlet's spring, sqrt(2)/w for an explicitly incremented one
-    (an extra instability: half the stiffness is enough), 1/c for damping alone."""
-    w2 = w_verlet2 + 2.0 * w_explicit2
-    if w2 <= 0.0:
-        return 1.0 / c if c > 0 else math.inf
-    return 2.0 * (math.sqrt(c * c + w2) - c) / w2  # no cancellation: c^2 << W^2 in practice
-
-
-def _pair_kinds(scene: Scene) -> list[tuple[float, float, int]]:
-    """(radius m, mass kg, count) of each kind of free disk."""
-    if scene.particles is not None:
-        rows = np.column_stack([0.5 * np.asarray(scene.particles.diameter, float),
-                                np.asarray(scene.particles.mass, float)])
-        kinds, counts = np.unique(rows, axis=0, return_counts=True)
-        return [(float(a), float(m), int(c)) for (a, m), c in zip(kinds, counts)]
-    return [(0.5 * s.diameter, s.mass, s.count) for s in scene.species if s.count > 0]
-
-
-def _rolling_pair(scene: Scene, kinds: list[tuple[float, float, int]]) -> float:
-    """omega^2 (1/s^2) of the stiffest rolling pair over k_r: a'^2 (1/I_i + 1/I_j) with the
-    reduced radius a' = a_i a_j/(a_i + a_j) and I = m a^2/2."""
-    if len(kinds) > 64:  # many kinds of free disk: a cruder bound, a'^2 (...) <= 2/min(m)
-        return 2.0 / min(m for _, m, _ in kinds)
-    return max((((ai * aj / (ai + aj)) ** 2) * 2.0 * (1 / (mi * ai**2) + 1 / (mj * aj**2))
-                for i, (ai, mi, ni) in enumerate(kinds)
-                for j, (aj, mj, _) in enumerate(kinds) if i != j or ni >= 2), default=0.0)
-
-
-def contact_modes(scene: Scene) -> list[tuple[str, float]]:
-    """(what, largest admitted step in s) of the resolution rule and of each mode the scene's
-    effects enable. The modes are the stiffest of the densest packing (hexagonal, six contacts
-    per disk) of the lightest disks, m_red the lightest pair's reduced mass; a partner of
-    infinite mass (a ring, a wall disk) gives a contact a smaller omega^2 than a free partner
-    (k/m_i against k/m_red), except the rolling spring on a flat ring surface (below). Each
-    step is ``mode_step_limit`` of the mode:
-
-    translation   every spring that pushes centres: k_n, and the sticking tangential spring
-                  k_t (with or without rotation: it acts on the centres either way), which is
-                  incremented explicitly. Rayleigh: a disk's stiffness sum_c (k_n n n + k_t
-                  t t) has at most 3 (k_n + k_t) with six neighbours 60 degrees apart, and
-                  each partner moves too: omega^2 <= 3 (k_n + k_t)/m_red (the hexagonal
-                  packing's M point attains 3 k_n/m_red exactly), so W^2 = 3 (k_n + 2 k_t)/
-                  m_red; damping 3 (gamma_n + gamma_t)/m_red, which grows with the stiffness:
-                  zeta = 0.75 against the pair's 0.43 for the paper's material.
-    gears         rotation with friction: every disk turning alike, each of the six contacts
-                  slips by 2 a theta: omega^2 = 4 z k_t/m = 12 k_t/m_red, four times the
-                  pair's 3 k_t/m_red; damping 12 gamma_t/m_red. Without rotation this mode
-                  does not exist, and the tangential spring is in ``translation`` only.
-    rolling       the rolling spring on the relative rotation: Rayleigh, each contact adds at
-                  most its pair's k_r a'^2 (1/I_i + 1/I_j) to a disk, six of them; a contact
-                  with a flat ring surface adds 2 k_r/m_i (a' = a_i, the ring does not turn)
-                  and leaves room for four neighbours.
-    """
-    c, e = scene.contact, scene.effects
-    m_red = smallest_reduced_mass(scene)
-    t_c = smallest_contact_time(scene)
-    z = PACKING_CONTACTS
-    modes = [(f"a collision's resolution, {STEPS_PER_CONTACT:g} steps per contact time t_c",
-              t_c / STEPS_PER_CONTACT)]
-    k_n, k_t = normal_stiffness(scene)[1:]
-    friction = e.tangential_friction and k_t > 0 and c.mu > 0  # mu = 0: it never sticks
-    gamma_t = c.gamma_t if friction and e.tangential_damping else 0.0
-    gamma_n = c.gamma_n if e.normal_damping else 0.0
-    k_t = k_t if friction else 0.0
-    damp = z / 2 * (gamma_n + gamma_t) / m_red
-    what = "the densest packing's translation, omega^2 = 3 k_n/m_red"
-    what += " + 3 k_t/m_red (explicit spring)" if friction else ""
-    what += f", damped by {z // 2} gamma/m_red" if damp > 0 else ""
-    modes.append((what, mode_step_limit(z / 2 * k_n / m_red, z / 2 * k_t / m_red, damp)))
-    if friction and e.rotation:
-        modes.append(("the densest packing's disks turning alike (gears), omega^2 = 12 k_t/m_red"
-                      " (explicit spring)",
-                      mode_step_limit(0.0, 2 * z * k_t / m_red, 2 * z * gamma_t / m_red)))
-    if e.rolling_resistance and e.rotation and c.k_r > 0:
-        kinds = _pair_kinds(scene)
-        pair = _rolling_pair(scene, kinds)
-        w2 = z * pair
-        if scene.geometry is not None:  # a disk on a ring surface, four neighbours beside it
-            w2 = max(w2, 2.0 / min(m for _, m, _ in kinds) + (z - 2) * pair)
-        modes.append(("the rolling spring, omega^2 = 6 k_r a'^2 (1/I_i + 1/I_j) (explicit "
-                      "spring)", mode_step_limit(0.0, c.k_r * w2, 0.0)))
-    return modes
-
-
-def stability_limit(scene: Scene) -> tuple[float, str]:
-    """The largest admitted step (s), the smallest of ``contact_modes``, and its mode."""
-    what, step = min(contact_modes(scene), key=lambda m: m[1])
-    return step, what
 
 
 QUANTUM_STEPS = 100

@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 
-from .scene import SceneError
+from .errors import SceneError
 
 REQ = object()  # marks a required key
 FLOAT, INT, BOOL, STR, AUTO, INT_AUTO = "float", "int", "bool", "str", "auto", "int-auto"

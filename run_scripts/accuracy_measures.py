@@ -20,7 +20,8 @@ from averaging.sample import snapshot_sample
 from averaging.timeavg import RingAverager
 from pardem.contact.model import contact_time, restitution
 from pardem.output.snapshots import read_snapshots
-from pardem.scene import load_scene, scene_from_dict
+from pardem.schema import scene_from_dict
+from pardem.scene_file import load_scene
 from pardem.simulation import Simulation
 from pardem.testing import D_S, M_S, elastic_gas_energy_error, measure, two_disks
 

@@ -334,9 +334,10 @@ class Study:
 
 def stability_line(ns) -> str:
     """Where the default step sits against the stability limit of the paper's material (from
-    the scene, pardem.timestep.stability_limit; ``ns``: table 1's dt = t_c/N)."""
-    from pardem.scene import load_scene
-    from pardem.timestep import smallest_contact_time, stability_limit
+    the scene, pardem.stability.stability_limit; ``ns``: table 1's dt = t_c/N)."""
+    from pardem.scene_file import load_scene
+    from pardem.scales import smallest_contact_time
+    from pardem.stability import stability_limit
 
     scene = load_scene(Path(__file__).parent / "couette_B.toml")
     t_c = smallest_contact_time(scene)
@@ -354,7 +355,7 @@ STABILITY = """\
 `pardem check` prints the limit, and a larger step is refused. It is the smallest of t_c/5 (a
 collision resolved in fewer steps leaves an elastic gas's energy drifting although nothing is
 unstable; it binds only without damping and friction) and the largest stable step of each mode
-of the densest packing that the effects enable (`pardem.timestep.contact_modes`).
+of the densest packing that the effects enable (`pardem.stability.contact_modes`).
 
 **One mode.** x'' = −ω_v² x − ω_e² ξ − c x', ξ' = x': pardem's velocity Verlet moves x with the
 half-step velocity, but evaluates the damping and increments the springs ξ (tangential,
@@ -461,7 +462,7 @@ def header(args, run) -> list[str]:
 
 def small_run(out: Path) -> Path:
     """A small sheared cell with snapshots and in-situ samples (when no paper run exists)."""
-    from pardem.scene import scene_from_dict
+    from pardem.schema import scene_from_dict
     from pardem.simulation import Simulation
 
     scene = scene_from_dict({

@@ -108,7 +108,7 @@ def parse_states(doc: str, rounds: int, option: str, default: int, orders: bool 
 
 
 def main() -> None:
-    from pardem.scene import load_scene
+    from pardem.scene_file import load_scene
     from pardem.simulation import Simulation
 
     args, states = parse_states(__doc__, 7, "--steps", 200, orders=True)

@@ -23,7 +23,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from pardem.output.snapshots import write_snapshot
-from pardem.scene import load_scene
+from pardem.scene_file import load_scene
 from pardem.simulation import Simulation
 
 ROOT = Path(__file__).parent.parent

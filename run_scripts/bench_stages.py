@@ -80,7 +80,7 @@ def round_times(sim, reps: int) -> dict[str, float]:
 
 
 def main() -> None:
-    from pardem.scene import load_scene
+    from pardem.scene_file import load_scene
     from pardem.simulation import Simulation
 
     args, states = parse_states(__doc__, 5, "--reps", 100)

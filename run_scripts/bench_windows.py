@@ -115,7 +115,7 @@ def report(label: str, seconds: list[float], fraction: str = "") -> None:
 
 
 def main() -> None:
-    from pardem.scene import load_scene
+    from pardem.scene_file import load_scene
     from pardem.simulation import Simulation
 
     def sweeps(ap):

@@ -65,7 +65,7 @@ def worker(scene_path: str) -> None:
 
     from mpi4py import MPI
 
-    from pardem.scene import load_scene
+    from pardem.scene_file import load_scene
 
     try:
         from pardem.warmup import warm_up

@@ -26,7 +26,7 @@ def worker(scene_path: str, steps: int, start: float) -> None:
     import numpy as np
     from mpi4py import MPI
 
-    from pardem.scene import load_scene
+    from pardem.scene_file import load_scene
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD

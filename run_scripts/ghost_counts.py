@@ -71,7 +71,7 @@ def _count(x, ang_sorted, order, radii, edges, w):
 def main() -> None:
     from pardem.parallel import GHOST_MARGIN_SKINS
     from pardem.placement import initial_configuration
-    from pardem.scene import load_scene
+    from pardem.scene_file import load_scene
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene", nargs="?", type=Path, default=HERE / "couette_B_1M.toml")

@@ -62,7 +62,7 @@ PREP_END = 1.0  # s: past the compression, the disks touch
 def kill_scene(path: Path, steps: int, checkpoint_every: int) -> float:
     """small_dense with a snapshot every step and a checkpoint every ``checkpoint_every``
     steps, ending ``steps`` steps after PREP_END; written to ``path``. Returns dt."""
-    from pardem.scene import load_scene
+    from pardem.scene_file import load_scene
     from pardem.timestep import resolve_dt
 
     dt = resolve_dt(load_scene(SCENE))

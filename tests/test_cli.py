@@ -131,7 +131,7 @@ def test_a_scene_too_large_for_the_memory_is_refused_before_allocating(tmp_path,
     import pardem.memory
     from helpers import couette_scene
 
-    from pardem.scene import write_scene
+    from pardem.scene_file import write_scene
 
     monkeypatch.setattr(pardem.memory, "available_bytes", lambda: 64.0 * 2**30)
     scene = couette_scene(counts=(10**9, 0), geometry={

@@ -39,6 +39,51 @@ def test_no_jitted_function_takes_more_than_twelve_positional_arguments():
     assert not found, found
 
 
+def _module_name(path: Path) -> str:
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def _module_imports(path: Path, modules: set[str]) -> set[str]:
+    """The project modules ``path`` imports at module level (``from . import sub`` imports
+    the submodule, not its package)."""
+    name = _module_name(path)
+    package = name if path.name == "__init__.py" else name.rpartition(".")[0]
+    found = set()
+    for node in ast.parse(path.read_text()).body:
+        if isinstance(node, ast.Import):
+            found |= {a.name for a in node.names if a.name in modules}
+        elif isinstance(node, ast.ImportFrom):
+            base = package.split(".")[:len(package.split(".")) - node.level + 1] if node.level \
+                else []
+            target = ".".join(base + ([node.module] if node.module else []))
+            subs = {f"{target}.{a.name}" for a in node.names} & modules
+            found |= subs if subs else ({target} & modules)
+    return found - {name}
+
+
+def test_no_import_circle_among_modules():
+    """Module-level imports form no cycle: a module's dependencies can be read before it."""
+    modules = {_module_name(p) for p in SOURCES}
+    graph = {_module_name(p): _module_imports(p, modules) for p in SOURCES}
+    state: dict[str, int] = {}  # 1: on the current path, 2: done
+
+    def visit(m: str, path: list[str]) -> list[str] | None:
+        state[m] = 1
+        for d in sorted(graph[m]):
+            if state.get(d) == 1:
+                return path + [m, d]
+            if d not in state and (cycle := visit(d, path + [m])):
+                return cycle
+        state[m] = 2
+        return None
+
+    for m in sorted(graph):
+        if m not in state:
+            cycle = visit(m, [])
+            assert cycle is None, " -> ".join(cycle[cycle.index(cycle[-1]):])
+
+
 def test_mpi_is_imported_only_under_pardem_parallel():
     parallel = ROOT / "pardem" / "parallel"
     found = []

@@ -15,7 +15,7 @@ import scaling_tables  # noqa: E402
 from input_reference import PAGE, render  # noqa: E402
 
 from pardem.check import describe  # noqa: E402
-from pardem.scene import load_scene  # noqa: E402
+from pardem.scene_file import load_scene  # noqa: E402
 
 
 def test_input_reference_is_generated_from_the_current_schema():

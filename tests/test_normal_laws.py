@@ -9,7 +9,8 @@ import numpy as np
 import pytest
 
 from pardem.contact.model import ContactOptions, contact_law
-from pardem.scene import SceneError, scene_to_toml
+from pardem.scene import SceneError
+from pardem.scene_file import scene_to_toml
 from pardem.schema import scene_from_dict
 from pardem.simulation import Simulation
 from pardem.testing import measure

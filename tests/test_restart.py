@@ -7,7 +7,8 @@ import numpy as np
 import pytest
 from helpers import couette_scene
 
-from pardem.scene import SceneError, scene_from_dict
+from pardem.scene import SceneError
+from pardem.schema import scene_from_dict
 from pardem.simulation import Simulation
 
 FIELDS = ("gid", "x", "v", "theta", "omega", "f", "tau", "hist_wall", "pair_lo", "pair_hi",

@@ -43,7 +43,8 @@ def test_scaled_cells_start_as_tight_as_the_placement_allows():
     import dataclasses
 
     from pardem.placement import initial_configuration
-    from pardem.scene import SceneError, load_scene
+    from pardem.scene import SceneError
+    from pardem.scene_file import load_scene
 
     scene = load_scene(RUN_SCRIPTS / "couette_B_30k.toml")
     assert initial_configuration(scene).n_free == 30096

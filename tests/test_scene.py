@@ -13,26 +13,13 @@ import h5py
 import numpy as np
 import pytest
 
-from pardem.scene import (
-    FreeParticles,
-    Scene,
-    SceneError,
-    load_scene,
-    scene_from_dict,
-    scene_to_toml,
-    write_scene,
-)
+from pardem.scene import FreeParticles, Scene, SceneError
+from pardem.schema import scene_from_dict
+from pardem.scene_file import load_scene, scene_to_toml, write_scene
 from pardem.contact.model import restitution
 from pardem.check import describe
-from pardem.timestep import (
-    contact_time,
-    off_step,
-    resolve_dt,
-    resolve_step,
-    smallest_contact_time,
-    smallest_reduced_mass,
-    time_quantum,
-)
+from pardem.scales import contact_time, smallest_contact_time, smallest_reduced_mass
+from pardem.timestep import off_step, resolve_dt, resolve_step, time_quantum
 
 ROOT = Path(__file__).resolve().parents[1]
 RUN_SCRIPTS = sorted((ROOT / "run_scripts").glob("*.toml"))
@@ -87,7 +74,7 @@ BAD_COUETTE = [
     ("contact.k_n", True, r"[contact] k_n = true: expected a number"),
     ("contact.k_n", "352", r"[contact] k_n = '352': expected a number (N/m)"),
     ("contact.k_n", float("nan"), r"[contact] k_n = nan: must be finite"),
-    ("contact.k_nn", 1.0, r"[contact] unknown key 'k_nn'; allowed: k_n, gamma_n"),
+    ("contact.k_nn", 1.0, r"[contact] unknown key 'k_nn'; allowed: normal, k_n, gamma_n"),
     ("time.end", "abc", r"[time] end = 'abc': expected a number (s)"),
     ("time.end", 0.0, r"[time] end"),
     ("time.dt", -1e-5, r"[time] dt = -1e-05: must be > 0"),
@@ -531,7 +518,7 @@ def test_the_step_is_limited_by_the_stiffest_enabled_contact_mode():
         resolve_dt(scene(**{"time.dt_per_contact": 10}))
     assert resolve_dt(scene(**{"time.dt_per_contact": 11.2})) == pytest.approx(0.1 / 515,
                                                                               rel=1e-12)
-    from pardem.timestep import stability_limit
+    from pardem.stability import stability_limit
 
     for off in ({"effects.rotation": False}, {}):  # rotation changes nothing here
         assert stability_limit(scene(**off))[0] == pytest.approx(damped_friction, rel=1e-12)

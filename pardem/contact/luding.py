@@ -23,12 +23,11 @@ from __future__ import annotations
 import numba as nb
 
 from ..jit import INLINE
+from ..values import fail
 from .slot import NormalLaw
 
 
 def _check(c: dict) -> None:
-    from ..values import fail
-
     if not c["k_unload"] >= c["k_n"]:
         raise fail("[contact]", "k_unload", c["k_unload"], f"must be >= k_n = {c['k_n']!r} "
                    "(unloading is stiffer than loading in Luding's law)", "N/m")

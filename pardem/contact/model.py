@@ -1,6 +1,6 @@
 """The contact model of one scene: which slots of ``laws.py`` are on (``ContactOptions``), their
 parameters (``LawParams``), the per-contact history they keep, and the composed kernels that the
-force loop calls for disk-disk pairs (``lane_contact``) and disk-ring contacts
+force loop calls for disk-disk pairs (``pair_force``, on lanes: lanes.py) and disk-ring contacts
 (``surface_contact``); also the analytic contact time and the elastic energy of a contact.
 
 Stage: force kernels. Options are compile-time constants (``ContactOptions`` is ``@static``:
@@ -38,6 +38,7 @@ import numba as nb
 
 from ..jit import INLINE
 from ..static import static
+from ..values import fail
 from .laws import coulomb_limit, normal_viscous, rolling_limit, spring_increment
 from .normal import (LAWS, law_of, normal_energy, normal_force, normal_width,
                      tangential_stiffness)
@@ -97,8 +98,6 @@ PARAMETER_UNITS = {"gamma_t": "kg/s", "k_r": "N/m", "mu_r": ""}
 def check_slots(c: dict, e: dict) -> None:
     """SceneError unless every switched-on slot has its parameters ([contact] c and [effects]
     e as dicts), and no slot's parameter is set while the slot is off."""
-    from ..values import fail
-
     if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
         raise fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
                    "tangential_friction is on and mu > 0", "N/m")
@@ -272,78 +271,6 @@ def pair_eta(d, a, dv, w, eta, dt):
     pd_ex, pd_ey = spring_increment(eta[0], eta[1], pd_nx, pd_ny, pd_vx, pd_vy, pd_vn, dt)
     pd_on = pd_ai + pd_aj - pd_dist > 0.0
     return (pd_ex if pd_on else 0.0), (pd_ey if pd_on else 0.0)
-
-
-# ----------------------------------------------------------------- the batched pair loop's lanes
-
-MAX_OVERLAP = 0.25
-"""The deepest overlap the linear law is taken to represent, as a fraction of the smaller
-diameter of the free disks in the contact (a ring's wall disk does not count: it does not move,
-and the rings' small disks are not what passes through). The law models a small elastic dent: the paper's compressed packings
-reach ~1 % of d, the densest packing tested ~8 %, a violent head-on impact at the default dt
-~20 %. At 25 % the smaller disk's centre is half its radius from the larger one's rim, the
-contact chord is wider than that radius and a third disk can touch both centres' overlap
-zone; at 50 % (equal disks) each centre lies on the other's rim and the pair is about to
-pass through. Deeper overlaps stop a run (forces.contact_forces records them, the step loop
-stops every rank) and set the speeds a scene may start with (timestep.check_free_speeds)."""
-
-BATCH = 64  # pairs per batch of the force loop: its work rows stay in L1
-# Rows of the work array (each BATCH lanes): the inputs gathered per pair, the outputs, then
-# the history: W_HIST + c in, W_HIST + width + c out.
-(W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_ACT, W_FX, W_FY, W_TI, W_TJ, W_FN, W_FTX,
- W_FTY, W_HIST) = range(17)
-
-
-@nb.njit(**INLINE)
-def work_size(o):
-    """The force loop's work rows, then two elements for forces.contact_forces' choice."""
-    return (W_HIST + 2 * history_width(o)) * BATCH + 2
-
-
-@nb.njit(**INLINE)
-def lane_contact(work, lane, reach, law, o, defer):
-    """pair_force on one lane of the work rows: outputs and updated history written back
-    there; returns ``(active, flagged)`` (flagged: deferred, redo without ``defer``)."""
-    lc_hw = history_width(o)
-    lc_in = W_HIST * BATCH + lane
-    lc_out = (W_HIST + lc_hw) * BATCH + lane
-    if o.eta and defer:  # bookkeeping, independent of the deferred branches: once per pair
-        lc_e = eta_column(o) * BATCH
-        lc_ex, lc_ey = pair_eta(
-            (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
-            (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
-            (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
-            (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]),
-            (work[lc_in + lc_e], work[lc_in + lc_e + BATCH]), law.dt)
-        work[lc_out + lc_e] = lc_ex
-        work[lc_out + lc_e + BATCH] = lc_ey
-    lc_sp = spring_column(o) * BATCH
-    lc_xix = work[lc_in + lc_sp] if o.friction else 0.0
-    lc_xiy = work[lc_in + lc_sp + BATCH] if o.friction else 0.0
-    lc_xr = work[lc_in + rolling_column(o) * BATCH] if o.rolling else 0.0
-    lc_hn = work[lc_in] if normal_width(o) else 0.0
-    (lc_act, lc_fxl, lc_fyl, lc_til, lc_tjl, lc_fnl, lc_ftxl, lc_ftyl, lc_xoxl, lc_xoyl, lc_xrl,
-     lc_hnl, lc_again) = pair_force(
-        (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
-        (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
-        (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
-        (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]), (lc_xix, lc_xiy), lc_xr, lc_hn,
-        reach, law, o, defer)
-    work[W_FX * BATCH + lane] = lc_fxl
-    work[W_FY * BATCH + lane] = lc_fyl
-    work[W_TI * BATCH + lane] = lc_til
-    work[W_TJ * BATCH + lane] = lc_tjl
-    work[W_FN * BATCH + lane] = lc_fnl
-    work[W_FTX * BATCH + lane] = lc_ftxl
-    work[W_FTY * BATCH + lane] = lc_ftyl
-    if o.friction:
-        work[lc_out + lc_sp] = lc_xoxl
-        work[lc_out + lc_sp + BATCH] = lc_xoyl
-    if o.rolling:
-        work[lc_out + rolling_column(o) * BATCH] = lc_xrl
-    if normal_width(o):
-        work[lc_out] = lc_hnl
-    return lc_act, lc_again
 
 
 # ----------------------------------------------------------------- contacts with a surface

@@ -28,7 +28,9 @@ from __future__ import annotations
 
 import numba as nb
 
+from ..errors import SceneError
 from ..jit import INLINE
+from ..values import fail
 from .hertz import HERTZ, hertz_energy, hertz_force, hertz_tangential
 from .laws import normal_elastic
 from .luding import LUDING, luding_energy, luding_force
@@ -61,9 +63,6 @@ def foreign_keys(name: str) -> set[str]:
 def check_law(c: dict, given) -> None:
     """SceneError unless the [contact] table ``c`` (every key, defaults filled in) gives the
     parameters of its normal law and none of another's (``given``: the keys the scene wrote)."""
-    from ..scene import SceneError
-    from ..values import fail
-
     law = LAWS[c["normal"]]
     for other in LAWS.values():
         for name in other.keys:

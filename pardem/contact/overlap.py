@@ -12,7 +12,18 @@ import math
 import numba as nb
 
 from ..jit import INLINE
-from .model import BATCH, MAX_OVERLAP, W_AI, W_AJ, W_DX, W_DY
+from .lanes import BATCH, W_AI, W_AJ, W_DX, W_DY
+
+MAX_OVERLAP = 0.25
+"""The deepest overlap the contact law is taken to represent, as a fraction of the smaller
+diameter of the free disks in the contact (a ring's wall disk does not count: it does not
+move, and the rings' small disks are not what passes through). The law models a small
+elastic dent: the paper's compressed packings reach ~1 % of d, the densest packing tested ~8 %, a violent head-on impact at the default dt
+~20 %. At 25 % the smaller disk's centre is half its radius from the larger one's rim, the
+contact chord is wider than that radius and a third disk can touch both centres' overlap
+zone; at 50 % (equal disks) each centre lies on the other's rim and the pair is about to
+pass through. Deeper overlaps stop a run (forces.contact_forces records them, the step loop
+stops every rank) and set the speeds a scene may start with (timestep.check_free_speeds)."""
 
 
 @nb.njit(**INLINE)

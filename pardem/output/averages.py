@@ -17,7 +17,7 @@ import json
 import numpy as np
 
 from ..scene import SceneError
-from ..timestep import normal_stiffness
+from ..scales import normal_stiffness
 from .writers import sample_steps
 
 ARRAYS = ("rings_sums", "rings_times", "rings_inner_torque")

@@ -20,7 +20,8 @@ import socket
 import time
 from pathlib import Path
 
-from ..scene import SceneError, load_scene
+from ..scene import SceneError
+from ..scene_file import load_scene
 
 RUN_FILES = ("scene.toml", "log.txt", "checkpoint.h5", "snapshots", "particles.xdmf",
              "contacts.xdmf", "rings.h5", "rings.csv", "rings.vtu",

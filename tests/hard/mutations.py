@@ -22,7 +22,7 @@ ROOT = Path(__file__).resolve().parents[2]
 HARD = "tests/hard/"
 MUTATIONS = [  # (guard, file, its text, the text without it, the test that must catch it)
     ("Coulomb cap at |f_t| = mu|f_n| = 0 (strict >)", "pardem/contact/laws.py",
-     "if cl_ft2 > cl_fmax * cl_fmax:", "if cl_ft2 >= cl_fmax * cl_fmax:",
+     "cl_sliding = cl_ft2 > cl_fmax * cl_fmax", "cl_sliding = cl_ft2 >= cl_fmax * cl_fmax",
      HARD + "test_contacts_hard.py::"
      "test_contact_law_with_zero_tangential_velocity_and_zero_spring"),
     ("bottom friction at rest (speed <= dv)", "pardem/integrate.py",
@@ -30,8 +30,8 @@ MUTATIONS = [  # (guard, file, its text, the text without it, the test that must
      HARD + "test_contacts_hard.py::"
      "test_disk_at_rest_with_bottom_friction_stays_exactly_at_rest"),
     ("ring speed refusal", "pardem/timestep.py",
-     "    g = scene.geometry\n    if g is None:\n        return\n    worst = ",
-     "    g = scene.geometry\n    if g is None or True:\n        return\n    worst = ",
+     "    g = scene.geometry\n    if g is None:\n        return\n    k_load = ",
+     "    g = scene.geometry\n    if g is None or True:\n        return\n    k_load = ",
      HARD + "test_packings_hard.py::test_ring_too_fast_for_the_contact_law_is_refused"),
     ("watchdog: centre beyond the current ring line", "pardem/integrate.py",
      "        hi2, lo2 = r_hi * r_hi, prm.rings.r_in * prm.rings.r_in",
@@ -43,7 +43,7 @@ MUTATIONS = [  # (guard, file, its text, the text without it, the test that must
      "        n_bad += 1 if r2 < lo2 or r2 > hi2 else 0  # NaN slips through",
      HARD + "test_parallel_hard.py::test_watchdog_on_two_ranks_stops_every_rank"),
     ("checkpoint content checks", "pardem/output/restart.py",
-     "    _check_restored(path, arrays, ps)\n", "",
+     "            _check_rows(path, key, rows, getattr(ps, key)[:k], idx)\n", "",
      HARD + "test_files_hard.py::test_corrupted_checkpoint_is_refused"),
     ("placement within the band", "pardem/placement.py",
      "room = np.maximum(np.minimum(0.5 * spacing - radius, band), 0.0) * 0.99",

@@ -11,10 +11,12 @@ from helpers import couette_scene, free_scene
 from mpi_helpers import MPI_DIR, run_mpi
 
 from pardem import cli
-from pardem.scene import SceneError, write_scene
+from pardem.scene import SceneError
+from pardem.scene_file import write_scene
 from pardem.simulation import Simulation
 from pardem.testing import D_S, M_S, dense_cell, stability_drift
-from pardem.timestep import mode_step_limit, resolve_dt, stability_limit
+from pardem.stability import mode_step_limit, stability_limit
+from pardem.timestep import resolve_dt
 
 K_N, GAMMA_N = 352.1, 0.19
 M_RED = M_S / 2
