@@ -25,6 +25,7 @@ from .contact.lanes import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, 
 from .contact.model import history_width
 from .contact.overlap import lane_overlap, note_deep, too_deep
 from .jit import INLINE, JIT
+from .pair_select import select_pairs, zero_pairs
 from .ring_forces import ring_contacts
 
 
@@ -42,10 +43,6 @@ SELECT_BELOW = 0.5
 SELECT_BELOW_LARGE = 0.55
 LARGE_LIST = 100_000
 RECHECK = 100
-
-# Relative padding of select_pairs' distance test, far above the rounding of the law's own
-# overlap and approach speed: a pair it leaves out is certainly one the law gives zero.
-PAD = 1e-12
 
 
 @nb.njit(**INLINE)
@@ -339,39 +336,3 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
     wk.n_live[0] = 1 if was == 0 else 0
     wk.n_live[1] = n_new
     return n_force / n_pairs if n_pairs else 0.0
-
-
-@nb.njit(**JIT)
-def select_pairs(gx, gv, ga, pi, pj, start, count, h, keep, queue, q):
-    """Append to queue[q:] the pairs among [start, start + count) that can have a force:
-    closer than a_i + a_j + h (|dv_x| + |dv_y|), with h half a step when the damping window
-    is on (a pair farther apart than its own half step of approach gets exactly zero: no
-    spring, no damping) and 0 otherwise, padded by PAD for rounding. Returns the new length
-    of the queue."""
-    one = np.uint64(1)
-    for ln in range(count):  # no dependence between pairs: several in flight
-        kk = np.uint64(start + ln)
-        ii = np.uint64(pi[kk])
-        jj = np.uint64(pj[kk])
-        dx = gx[ii + ii] - gx[jj + jj]
-        dy = gx[ii + ii + one] - gx[jj + jj + one]
-        band = h * (abs(gv[ii + ii] - gv[jj + jj]) + abs(gv[ii + ii + one] - gv[jj + jj + one]))
-        lim = (ga[ii] + ga[jj] + band) * (1.0 + PAD)
-        keep[ln] = 1 if dx * dx + dy * dy < lim * lim else 0
-    for ln in range(count):
-        queue[q] = start + ln
-        q += keep[ln]
-    return q
-
-
-@nb.njit(**INLINE)
-def zero_pairs(sxi, rfn, rft, start, stop, n_hist, record):
-    """Pairs [start, stop) left with zero history (and recorded forces): the kept ones among
-    them get theirs at the scatter."""
-    for zq in range(start * n_hist, stop * n_hist):
-        sxi[zq] = 0.0
-    if record:
-        for zq in range(start, stop):
-            rfn[zq] = 0.0
-        for zq in range(2 * start, 2 * stop):
-            rft[zq] = 0.0

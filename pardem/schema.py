@@ -13,8 +13,7 @@ from dataclasses import MISSING
 from pathlib import Path
 from typing import Any
 
-from .contact.model import check_slots
-from .contact.normal import check_law
+from .contact.keys import check_law, check_slots
 from .particles_input import check_particles, particles_from_file, particles_from_tables
 from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
                     SceneError, SceneInfo, Species, TimeCfg)

@@ -30,13 +30,10 @@ from .contact.history import live_history, tracks_eta
 from .contact.model import history_columns, law_params, options_for
 from .output.progress import breakdown, end_progress, log_line, start_notes
 from .output.progress import report as report_progress
-from .output.restart import gather_state, put_recorded_forces, restore
-from .output.series import continue_series
-from .output.snapshots import write_snapshot
-from .output.checkpoint import save_checkpoint
+from .output.restart import put_recorded_forces, restore
 from .output.folder import FolderLock, claim, lock_unchanged
-from .output.averages import make_averager, resume, sample_grid
-from .output.writers import At, Checkpoints, Every, RingSamples, Snapshots
+from .output.averages import make_averager, resume
+from .output.writers import Checkpoints, Every, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
 from .memory import prepare_memory, reuse_freed_arrays
 from .placement import initial_configuration, rank_share
@@ -51,6 +48,7 @@ from .step import (BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP, StepOptions
 from .timestep import check_step_count, resolve_step
 from .watchdog import bad_particle_message, too_deep_message
 from .views import StateViews
+from .run_output import RunOutput
 from .walls import rings_of, wall_layout
 
 
@@ -58,7 +56,7 @@ class SimulationError(RuntimeError):
     """The run became invalid (non-finite value, particle left the cell)."""
 
 
-class Simulation(StateViews):
+class Simulation(StateViews, RunOutput):
     """One scene's state and run loop: ``Simulation(scene, out_dir=None, restart=None,
     comm=None, overwrite=False, cut="auto")``, ``run(end=None, progress=True)``,
     ``advance_steps(n)``. ``out_dir`` must not hold another run unless ``overwrite``
@@ -299,17 +297,6 @@ class Simulation(StateViews):
             self.log(f"run {stopped}; the checkpoint holds this state")
             raise stopped
 
-    def _ring_writers(self, end_step: int) -> list:
-        """The in-situ ring sampler (none without [averaging]) at the sample steps up to
-        ``end_step`` that it has not taken: after its last sample (a later run(), a restart:
-        the checkpoint's samples are kept), else from this step on, this one included."""
-        if self.rings is None:
-            return []
-        steps = sample_grid(self.scene, self.dt, end_step)
-        taken = self.rings.times
-        steps = steps[steps > round(taken[-1] / self.dt) if taken else steps >= self.step]
-        return [RingSamples(At(steps), self.rings, self.out_dir)]
-
     def advance_steps(self, n: int) -> None:
         """Take n steps without output (tests, benchmarks); collective under MPI."""
         self._advance_to(self.step + n)
@@ -351,46 +338,3 @@ class Simulation(StateViews):
         t0 = time.perf_counter()
         fn(*args)
         self.timers[stage] += time.perf_counter() - t0
-
-    # -- output --------------------------------------------------------------------------------
-    @property
-    def snapshot_period(self) -> int:
-        """Steps between snapshots ([output] snapshot_interval, rounded to whole steps)."""
-        return max(1, int(round(self.scene.output.snapshot_interval / self.dt)))
-
-    @property
-    def end_snapshot(self) -> bool:
-        """Whether the last snapshot is this state's end snapshot, off the snapshot grid: a
-        continued run replaces it with its next one (checkpoints keep this)."""
-        if self._series is None:
-            return self._end_step == self.step
-        return self._series.ends_at(self.step)
-
-    def _snapshot_series(self):
-        """The series of snapshot files this run continues (collective, once)."""
-        if self._series is None:
-            self._series = self.decomp.bcast_call(continue_series, self.out_dir, self.step,
-                                                  self.snapshot_period, self._end_step,
-                                                  self.log)
-        return self._series
-
-    def write_snapshot(self, end: bool = False) -> None:
-        """The current state into the next snapshot file (collective); ``end``: the end of a
-        run off the snapshot grid, a snapshot the next one replaces."""
-        index = self._snapshot_series().take(self.step, end)
-        contacts = self.contacts()
-        with_rings = self.options.walls and self.scene.output.contacts
-        ring = self.ring_contacts() if with_rings else None
-        arrays = self._particle_table(contacts)
-        if self.decomp.rank == 0:
-            write_snapshot(self.out_dir, index, self.time, self.step, arrays,
-                           contacts if self.scene.output.contacts else None, ring)
-
-    def checkpoint_state(self) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
-        """The whole state gathered on rank 0 (None on the others; output.restart)."""
-        return gather_state(self)
-
-    def write_checkpoint(self, path: str | Path | None = None) -> None:
-        state = self.checkpoint_state()
-        if state is not None:
-            save_checkpoint(path or self.out_dir / "checkpoint.h5", *state)

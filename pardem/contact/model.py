@@ -26,7 +26,7 @@ eta (2). A pair that does not touch has all
 zero; a new contact starts from zero.
 
 Adding a slot: its kernel in laws.py, its option, parameters and columns here, its keys in
-scene.py. Adding a choice of the normal slot: normal.py.
+scene.py and their checks in keys.py. Adding a choice of the normal slot: normal.py.
 """
 
 from __future__ import annotations
@@ -38,7 +38,6 @@ import numba as nb
 
 from ..jit import INLINE
 from ..static import static
-from ..values import fail
 from .laws import coulomb_limit, normal_viscous, rolling_limit, spring_increment
 from .normal import (LAWS, law_of, normal_energy, normal_force, normal_width,
                      tangential_stiffness)
@@ -82,38 +81,6 @@ def options_for(effects, integrator: str, eta: bool, normal: str = "linear") -> 
         clip=effects.clip_attractive_normal, window=integrator == "verlet",
         tangential_damping=effects.tangential_damping, rolling=effects.rolling_resistance,
         eta=eta, normal=LAWS[normal].code)
-
-
-# an optional slot's [effects] switch -> (the effect it needs and why, its [contact] parameters
-# that must be > 0 when on, its other parameters); none may be set while the slot is off
-SLOT_KEYS = {
-    "tangential_damping": ("tangential_friction", "it damps the tangential spring",
-                           ("gamma_t",), ()),
-    "rolling_resistance": ("rotation", "it resists the disks' relative rotation", ("k_r",),
-                           ("mu_r",)),
-}
-PARAMETER_UNITS = {"gamma_t": "kg/s", "k_r": "N/m", "mu_r": ""}
-
-
-def check_slots(c: dict, e: dict) -> None:
-    """SceneError unless every switched-on slot has its parameters ([contact] c and [effects]
-    e as dicts), and no slot's parameter is set while the slot is off."""
-    if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
-        raise fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
-                   "tangential_friction is on and mu > 0", "N/m")
-    for switch, (needs, why, positive, optional) in SLOT_KEYS.items():
-        if e[switch]:
-            if not e[needs]:
-                raise fail("[effects]", switch, True, f"needs [effects] {needs} = true ({why})")
-            for name in positive:
-                if not c[name] > 0:
-                    raise fail("[contact]", name, c[name], f"must be > 0 when [effects] "
-                               f"{switch} is on", PARAMETER_UNITS[name])
-            continue
-        for name in positive + optional:
-            if c[name] != 0:
-                raise fail("[contact]", name, c[name], f"is set but [effects] {switch} is off; "
-                           f"switch it on or remove {name}", PARAMETER_UNITS[name])
 
 
 def law_params(contact, dt: float) -> LawParams:

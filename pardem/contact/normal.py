@@ -28,9 +28,7 @@ from __future__ import annotations
 
 import numba as nb
 
-from ..errors import SceneError
 from ..jit import INLINE
-from ..values import fail
 from .hertz import HERTZ, hertz_energy, hertz_force, hertz_tangential
 from .laws import normal_elastic
 from .luding import LUDING, luding_energy, luding_force
@@ -50,34 +48,6 @@ LUDING_CODE = LUDING.code
 def law_of(contact) -> NormalLaw:
     """The descriptor a [contact] table (scene.Contact) picks."""
     return LAWS[contact.normal]
-
-
-def foreign_keys(name: str) -> set[str]:
-    """The [contact] keys a scene with ``normal = name`` may not give: the other laws'
-    parameters, and k_t where the law sets the tangential stiffness itself."""
-    law = LAWS[name]
-    return ({k for other in LAWS.values() for k in other.keys if k not in law.keys}
-            | ({"k_t"} if law.tangential else set()))
-
-
-def check_law(c: dict, given) -> None:
-    """SceneError unless the [contact] table ``c`` (every key, defaults filled in) gives the
-    parameters of its normal law and none of another's (``given``: the keys the scene wrote)."""
-    law = LAWS[c["normal"]]
-    for other in LAWS.values():
-        for name in other.keys:
-            if name in given and name not in law.keys:
-                raise fail("[contact]", name, c[name], f'is a parameter of normal = '
-                           f'"{other.name}"; this scene\'s normal law is "{law.name}" (its own '
-                           f"parameters: {', '.join(law.keys)})")
-    if law.tangential and "k_t" in given:
-        raise fail("[contact]", "k_t", c["k_t"], f'normal = "{law.name}" sets the tangential '
-                   "stiffness from its own parameters (Mindlin); remove k_t")
-    for name in law.required:
-        if name not in given:
-            raise SceneError(f'[contact] {name}: missing (required with normal = "{law.name}")')
-    if law.check is not None:
-        law.check(c)
 
 
 # ----------------------------------------------------------------- compiled dispatch
