@@ -2,7 +2,7 @@
 
 Stage: averaging output. ``make_figures(runs, out_dir)`` takes runs loaded by
 ``report.load_run`` (one run: ``pardem plot DIR``; the three paper runs:
-``run_scripts/paper_figures.py``) and writes, with the paper's axes and normalisations
+``run_scripts/paper/paper_figures.py``) and writes, with the paper's axes and normalisations
 (r~ = (r - R_i)/d~, k'_n = k_n/h) and error bars from the block errors of the samples:
 
     fig_1_2_volume_fraction.png    nu(r~)

@@ -1,7 +1,7 @@
 """Numbers that compare a run's ring averages with the paper (Lätzel, Luding, Herrmann).
 
 Stage: averaging (validation). Every metric is computed from ``read_rings(DIR)`` and the run's
-scene, and is defined here once; ``run_scripts/paper_figures.py`` puts them in the comparison
+scene, and is defined here once; ``run_scripts/paper/paper_figures.py`` puts them in the comparison
 table. Regions are in r~ = (r - R_i)/d~:
 
 - fit_v0, fit_s: v_phi/(Omega R_i) = v0 exp(-r~/s) over 0.25 <= r~ <= 8.1 by least squares
@@ -58,7 +58,8 @@ def global_volume_fraction(scene) -> float:
 
 
 PAPER_SCENES = {f"couette-{k}": k for k in PAPER}
-"""The shipped scenes that stand for the paper's simulations (run_scripts/couette_[ABC].toml)."""
+"""The shipped scenes that stand for the paper's simulations
+(run_scripts/scenes/couette_[ABC].toml)."""
 
 
 def load_run(run_dir: str | Path, label: str | None = None, paper: str | None = None) -> dict:

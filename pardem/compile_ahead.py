@@ -14,9 +14,9 @@ them, one after another, in the same order. Instead:
   test of the contact tables.
 After a barrier each rank loads the other's from numba's disk cache when it first calls them;
 with a warm cache each ``compile`` only loads. The two lists take about as long
-(``run_scripts/compile_times.py`` measures the balance). The signatures are those of the calls
-that follow (``numba.typeof`` of the same arguments; inside the step loop the switches are
-literals; the step loop's refresh plan is an empty one of the same types): a mismatch would
+(``run_scripts/benchmarks/compile_times.py`` measures the balance). The signatures are those of
+the calls that follow (``numba.typeof`` of the same arguments; inside the step loop the switches
+are literals; the step loop's refresh plan is an empty one of the same types): a mismatch would
 cost only a second compile, which ``tests/test_mpi.py`` checks for.
 """
 

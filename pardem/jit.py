@@ -17,7 +17,7 @@ compiled code is cached.
   not reuse a variable name of an inlined callee: that was seen to change results by 1 ulp
   (tests/test_contact_law.py compares the compiled loop with standalone kernel calls).
 - Compiled code assigns arrays element by element (``copy_values``), never ``a[i:j] = b``: see
-  there. ``run_scripts/compile_times.py`` measures the cold compile per module.
+  there. ``run_scripts/benchmarks/compile_times.py`` measures the cold compile per module.
 
 The cache: numba keys a cached function by its own source file only, so a step loop that
 inlines a kernel from another file would keep serving stale code after that file changed.

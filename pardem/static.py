@@ -10,7 +10,8 @@ at run time.
 
 This lets a large kernel take the options as an argument instead of being inlined into the
 step loop at numba IR level (``inline="always"`` copies the callee's IR into the caller, which
-cost ~20 s of the cold compile for the force loop alone; ``run_scripts/compile_times.py``).
+cost ~20 s of the cold compile for the force loop alone;
+``run_scripts/benchmarks/compile_times.py``).
 """
 
 from __future__ import annotations

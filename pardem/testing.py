@@ -1,12 +1,12 @@
 """Reference experiments and references shared by the tests and the accuracy study
-(run_scripts/accuracy_study.py).
+(run_scripts/studies/accuracy_study.py).
 
 Stage: verification. ``two_disks`` sets up the head-on collision of SPEC §3 and ``measure``
 times it: contact start and end are the zero crossings of the overlap, linearly interpolated
 between steps, and the restitution is the ratio of the separation and approach speeds.
 ``brute_force_pairs`` is the O(N^2) reference of the neighbour search. ``dense_cell`` and
 ``settled_kinetic_energy`` measure the stability limit (tests/hard/test_stability_hard.py,
-run_scripts/stability_table.py).
+run_scripts/studies/stability_table.py).
 """
 
 from __future__ import annotations

@@ -3,7 +3,7 @@
 Stage: entry point. Numba compiles a kernel at its first call and caches it on disk; a
 scene's first run therefore spends a minute compiling. ``warm_up`` runs a few steps with every
 writer firing, so that a batch job (or a benchmark of the cold compile,
-``run_scripts/compile_times.py``) finds every kernel in the cache.
+``run_scripts/benchmarks/compile_times.py``) finds every kernel in the cache.
 """
 
 from __future__ import annotations
@@ -22,7 +22,7 @@ def warm_up(scene: Scene, out_dir: str | Path, comm=None) -> Simulation:
     neighbour build as the step loop asks for one: numba then has compiled, and cached on disk,
     every kernel a run of this scene on this many ranks calls (``tests/test_mpi.py`` checks
     that a run after it saves nothing to the cache). ``pardem warmup`` and
-    ``run_scripts/compile_times.py`` both do this."""
+    ``run_scripts/benchmarks/compile_times.py`` both do this."""
     sim = Simulation(scene, out_dir=out_dir, comm=comm)
     dt = sim.dt
     averaging = scene.averaging and dataclasses.replace(

@@ -1,7 +1,7 @@
 """The accuracy study's short version (tiny inputs, about half a minute), so the script behind
 docs/accuracy.md cannot rot: every section but the ranks table (the quick settings run no
-MPI benchmark; section 5 comes from run_scripts/bench.py, which the MPI tests cover) runs and
-writes finite numbers and its plots."""
+MPI benchmark; section 5 comes from run_scripts/benchmarks/bench.py, which the MPI tests cover)
+runs and writes finite numbers and its plots."""
 
 import re
 import sys
@@ -14,7 +14,7 @@ ROOT = Path(__file__).parent.parent
 
 @pytest.mark.timeout(1800)  # compiles several integrator variants (cold cache: minutes)
 def test_quick_accuracy_study_writes_every_section(tmp_path):
-    sys.path.insert(0, str(ROOT / "run_scripts"))
+    sys.path.insert(0, str(ROOT / "run_scripts" / "studies"))
     import accuracy_study
 
     assert accuracy_study.main(["--quick", "--run", str(tmp_path / "none"),

@@ -14,6 +14,7 @@ from pardem.cli import main
 from pardem.timestep import resolve_dt
 
 SCENES = Path(__file__).parent / "scenes"
+SHIPPED = Path(__file__).parents[1] / "run_scripts" / "scenes"
 
 
 def test_run_writes_snapshots_checkpoint_and_resolved_scene(tmp_path, capsys):
@@ -107,7 +108,7 @@ def test_more_particles_than_fit_is_refused(tmp_path, capsys):
     area than the cell has, when the file is read), and the placement (B's counts fit the cell
     at 0.81, but not on the start lattice, spaced by the largest diameter, without the dilute
     start)."""
-    scene = (Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml").read_text()
+    scene = (SHIPPED / "couette_quick.toml").read_text()
     bad = tmp_path / "crowded.toml"
     bad.write_text(scene.replace("count = 2545", "count = 25450"))
     assert main(["run", str(bad), "--out", str(tmp_path / "o")]) == 2
@@ -204,7 +205,7 @@ def test_nonsense_times_and_widths_on_the_command_line_are_refused(args, message
 
 def test_a_ring_width_for_more_rings_than_allowed_is_refused_offline(tmp_path, capsys):
     """pardem average --ring-width 1e-12 names the ring count instead of allocating TiB."""
-    scene = (Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml").read_text()
+    scene = (SHIPPED / "couette_quick.toml").read_text()
     (tmp_path / "scene.toml").write_text(scene)
     assert main(["average", str(tmp_path), "--ring-width", "1e-12"]) == 2
     err = capsys.readouterr().err
@@ -216,7 +217,7 @@ def test_check_prints_the_step_and_the_stability_limit(capsys):
     steps no longer than t_c/50 (t_c = 2.17654 ms: 229.76 such steps), and the limit set by
     the damped translation of the densest packing, t_c/11.1 (tests/test_scene.py derives
     0.19630 ms)."""
-    assert main(["check", str(Path(__file__).parents[1] / "run_scripts" / "couette_B.toml")]) == 0
+    assert main(["check", str(SHIPPED / "couette_B.toml")]) == 0
     out = capsys.readouterr().out
     assert "dt = 4.34783e-05 s = t_c / 50.06" in out
     assert "output at exactly the times named" in out
@@ -230,7 +231,7 @@ def test_average_and_plot_of_damaged_output_files_say_so_in_one_line(tmp_path, c
     naming the folder, no traceback."""
     import h5py
 
-    scene = (Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml").read_text()
+    scene = (SHIPPED / "couette_quick.toml").read_text()
     (tmp_path / "scene.toml").write_text(scene)
     (tmp_path / "snapshots").mkdir()
     (tmp_path / "snapshots" / "000000.h5").write_text("not HDF5")
@@ -268,7 +269,7 @@ def test_pardem_run_ignores_signals_after_its_run():
     """``pardem run`` (restore=False) leaves SIGINT and SIGTERM ignored after the run: Python
     would reset its own handlers to the default (death) at finalisation, before MPI_Finalize
     waits for the other ranks, while an ignored signal stays ignored (the end-to-end check is
-    run_scripts/kill_loop.py --signal INT on 2 ranks)."""
+    run_scripts/tools/kill_loop.py --signal INT on 2 ranks)."""
     import signal
 
     from pardem import stop

@@ -1,6 +1,6 @@
 """Only the effects a scene calls for: mu = 0 equals friction off; friction off stores no history.
-What a disabled effect saves in time is measured by run_scripts/bench_effects.py (timings stay
-out of the tests)."""
+What a disabled effect saves in time is measured by run_scripts/benchmarks/bench_effects.py
+(timings stay out of the tests)."""
 
 import numpy as np
 from helpers import dense_packing, free_scene

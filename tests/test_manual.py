@@ -9,7 +9,7 @@ from pathlib import Path
 import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "run_scripts"))
+sys.path[:0] = [str(ROOT / "run_scripts" / "tools"), str(ROOT / "run_scripts" / "benchmarks")]
 
 import scaling_tables  # noqa: E402
 from input_reference import PAGE, render  # noqa: E402
@@ -19,13 +19,13 @@ from pardem.scene_file import load_scene  # noqa: E402
 
 
 def test_input_reference_is_generated_from_the_current_schema():
-    assert PAGE.read_text() == render(), "run: python run_scripts/input_reference.py"
+    assert PAGE.read_text() == render(), "run: python run_scripts/tools/input_reference.py"
 
 
 def test_scaling_tables_are_generated_from_the_committed_results():
     page = scaling_tables.PAGE
     assert page.read_text(encoding="utf-8") == scaling_tables.render(), \
-        "run: python run_scripts/scaling_tables.py"
+        "run: python run_scripts/benchmarks/scaling_tables.py"
 
 
 def test_every_key_the_validator_accepts_is_in_the_input_reference():

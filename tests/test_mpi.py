@@ -16,7 +16,7 @@ from mpi_helpers import MPI_DIR, assert_same_state, dump_state, run_mpi
 
 from pardem.scene_file import write_scene
 
-QUICK = Path(__file__).parents[1] / "run_scripts" / "couette_quick.toml"
+QUICK = Path(__file__).parents[1] / "run_scripts" / "scenes" / "couette_quick.toml"
 
 
 def fast_shear_scene(tmp_path, name="fast", output=None, averaging=None, **geometry):
@@ -110,7 +110,7 @@ def test_30k_cell_is_bitwise_identical_on_1_2_4_8_16_ranks_as_sectors_and_rings(
     then 20,000 more steps: on one rank without a stop, and from the 1.2 s checkpoint on 2
     (the automatic cut), 4 (2 x 2), 8 (2 x 4) and 16 ranks (4 x 4, and sectors), each with
     migrations (oversubscribed: minutes per run)."""
-    scene = Path(__file__).parents[1] / "run_scripts" / "couette_B_30k.toml"
+    scene = Path(__file__).parents[1] / "run_scripts" / "scenes" / "couette_B_30k.toml"
     start, steps = 27_567, 47_567
     ckpt = tmp_path / "c.h5"
     ref = dump_state(scene, steps, tmp_path / "r1.npz", 1, "--checkpoint-at", str(start),

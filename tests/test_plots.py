@@ -31,7 +31,7 @@ def test_global_volume_fraction_of_the_paper_scenes():
     the stated radii is 0.166643 m^2 (0.034 % less), which raises v-bar by 2.7e-4: so three
     digits here, all three runs off by the same amount."""
     for name, paper in (("A", 0.8084), ("B", 0.8149), ("C", 0.8194)):
-        scene = load_scene(ROOT / "run_scripts" / f"couette_{name}.toml")
+        scene = load_scene(ROOT / "run_scripts" / "scenes" / f"couette_{name}.toml")
         assert global_volume_fraction(scene) == pytest.approx(paper * 0.16670 / 0.166643,
                                                               abs=6e-5), name
 
@@ -81,12 +81,12 @@ def test_torque_metrics_agree_with_the_fields(small_run):
 
 
 def test_paper_figures_script_writes_figures_table_and_json(small_run, tmp_path):
-    """run_scripts/paper_figures.py end to end on one run: figures, the generated table, the
+    """run_scripts/paper/paper_figures.py end to end on one run: figures, the generated table, the
     JSON of every metric (plain numbers) and the resolved scene."""
     import json
     import sys
 
-    sys.path.insert(0, str(ROOT / "run_scripts"))
+    sys.path.insert(0, str(ROOT / "run_scripts" / "paper"))
     import paper_figures
 
     assert paper_figures.main([str(small_run), "--results", str(tmp_path)]) == 0
@@ -112,7 +112,7 @@ def test_seeds_of_one_simulation_are_averaged_with_their_error(small_run, tmp_pa
 
     import h5py
 
-    sys.path.insert(0, str(ROOT / "run_scripts"))
+    sys.path.insert(0, str(ROOT / "run_scripts" / "paper"))
     import paper_figures
 
     from averaging.report import load_run, metrics

@@ -1,4 +1,4 @@
-"""The shipped scaled cells (run_scripts/couette_B_30k/_300k/_1M.toml) are B scaled by k at
+"""The shipped scaled cells (run_scripts/scenes/couette_B_30k/_300k/_1M.toml) are B scaled by k at
 fixed particle size: the free disks' area fraction and the wall disks' spacing are B's,
 computed here from the files' own numbers, and each file is what scaled_scene.py writes; B with
 a 10 times faster ring (couette_B_ring_x10.toml) has the 300k cell's wall speed."""
@@ -10,8 +10,8 @@ from pathlib import Path
 
 import pytest
 
-RUN_SCRIPTS = Path(__file__).parents[1] / "run_scripts"
-sys.path.insert(0, str(RUN_SCRIPTS))
+RUN_SCRIPTS = Path(__file__).parents[1] / "run_scripts" / "scenes"
+sys.path.insert(0, str(RUN_SCRIPTS.parent / "tools"))
 from scaled_scene import fast_ring, scaled  # noqa: E402
 
 

@@ -22,7 +22,7 @@ from pardem.scales import contact_time, smallest_contact_time, smallest_reduced_
 from pardem.timestep import off_step, resolve_dt, resolve_step, time_quantum
 
 ROOT = Path(__file__).resolve().parents[1]
-RUN_SCRIPTS = sorted((ROOT / "run_scripts").glob("*.toml"))
+RUN_SCRIPTS = sorted((ROOT / "run_scripts" / "scenes").glob("*.toml"))
 D_S, M_S, D_L, M_L = 7.42e-3, 0.275e-3, 8.99e-3, 0.490e-3
 
 
@@ -292,14 +292,14 @@ def test_shipped_scene_values():
     assert {"couette_A", "couette_B", "couette_C", "couette_quick"} <= names
     counts = {"A": (2511, 400), "B": (2545, 394), "C": (2555, 399)}
     for k, (ns, nl) in counts.items():
-        s = load_scene(ROOT / "run_scripts" / f"couette_{k}.toml")
+        s = load_scene(ROOT / "run_scripts" / "scenes" / f"couette_{k}.toml")
         assert s.info.name == f"couette-{k}"
         assert [(sp.count, sp.diameter, sp.mass) for sp in s.species] == [(ns, D_S, M_S),
                                                                           (nl, D_L, M_L)]
         assert s.time.end == 239.0 and (s.averaging.start, s.averaging.end) == (180.0, 239.0)
         assert s.averaging.reference_diameter == 8.0e-3  # the paper's d~ (Table 1.1)
-    q = load_scene(ROOT / "run_scripts" / "couette_quick.toml")
-    b = load_scene(ROOT / "run_scripts" / "couette_B.toml")
+    q = load_scene(ROOT / "run_scripts" / "scenes" / "couette_quick.toml")
+    b = load_scene(ROOT / "run_scripts" / "scenes" / "couette_B.toml")
     assert q.species == b.species and q.contact == b.contact and q.geometry == b.geometry
     assert q.time.end == 6.0 and q.averaging.sample_interval == 0.05
 
@@ -317,7 +317,7 @@ def test_toml_round_trip(tmp_path, maker):
         d["time"]["dt"] = 1.234567890123e-5
         s = scene_from_dict(d)
     elif maker == "B":
-        s = load_scene(ROOT / "run_scripts" / "couette_B.toml")
+        s = load_scene(ROOT / "run_scripts" / "scenes" / "couette_B.toml")
     else:
         s = load_scene(ROOT / "tests" / "scenes" / "two_small.toml")
     out = tmp_path / "scene.toml"
@@ -438,7 +438,7 @@ def test_analytic_contact_values():
 
 
 def test_resolve_dt_shipped_b():
-    s = load_scene(ROOT / "run_scripts" / "couette_B.toml")
+    s = load_scene(ROOT / "run_scripts" / "scenes" / "couette_B.toml")
     m_red = M_S / 2
     eta = 0.19 / (2 * m_red)
     t_c = math.pi / math.sqrt(352.1 / m_red - eta**2)  # hand formula, SPEC §3
@@ -463,7 +463,7 @@ def test_the_time_quantum_is_a_power_of_ten_of_at_least_100_steps(longest, quant
 def test_output_times_off_the_step_are_named_and_rounded():
     """B's output times (239 s, 1 s, 10 s, 180 s, 0.1 s) are whole numbers of 10 ms / 230
     steps; 0.3333333 s is not; with an explicit dt of 3e-5 s only 180 s is."""
-    d = tomllib.loads((ROOT / "run_scripts" / "couette_B.toml").read_text())
+    d = tomllib.loads((ROOT / "run_scripts" / "scenes" / "couette_B.toml").read_text())
     b = scene_from_dict(d)
     assert off_step(b, resolve_step(b)) == []
     assert "output at exactly the times named" in describe(b)
@@ -577,7 +577,7 @@ def test_filling_to_a_volume_fraction_gives_the_papers_counts():
     the paper's 2545 small and 394 large disks. The paper's v-bar refers to a cell area of
     0.16670 m^2, ours (pi (R_o^2 - R_i^2) with the radii we use) is 0.166643 m^2, hence the
     factor (see test_plots.test_global_volume_fraction_of_the_paper_scenes)."""
-    b = load_scene(ROOT / "run_scripts" / "couette_B.toml")
+    b = load_scene(ROOT / "run_scripts" / "scenes" / "couette_B.toml")
     d = b.to_dict()
     d["geometry"]["volume_fraction"] = 0.8149 * 0.16670 / 0.166643
     for s, share in zip(d["species"], (0.866, 0.134)):  # 2545 / 2939, 394 / 2939

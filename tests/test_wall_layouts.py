@@ -34,7 +34,7 @@ def test_the_shipped_scenes_carry_the_layout_the_study_picked():
     behind (the count checked against 2 pi R / spacing: 4.06 mm and 9.98 mm apart)."""
     assert "**Picked: `split`**" in (ROOT / "docs" / "roughness.md").read_text()
     for sim in ("A", "B", "C", "quick"):
-        g = load_scene(ROOT / "run_scripts" / f"couette_{sim}.toml").geometry
+        g = load_scene(ROOT / "run_scripts" / "scenes" / f"couette_{sim}.toml").geometry
         inner, outer = wall_layout(g, "inner"), wall_layout(g, "outer")
         assert (inner.count, outer.count) == (160, 159), sim
         assert round(2 * math.pi * g.inner_radius / 4.064e-3) == 160
@@ -44,7 +44,7 @@ def test_the_shipped_scenes_carry_the_layout_the_study_picked():
 
 def test_the_studys_layouts_have_the_papers_wall_fraction():
     """v-bar_wall = 0.0047 (the paper: half of every 2.5 mm wall disk over the cell area)."""
-    sys.path.insert(0, str(ROOT / "run_scripts"))
+    sys.path.insert(0, str(ROOT / "run_scripts" / "studies"))
     import roughness_study
 
     for name in roughness_study.LAYOUTS:

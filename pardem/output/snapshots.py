@@ -33,7 +33,7 @@ first snapshot, drops the abandoned tail (snapshots at or after that index) from
 then deletes those files, highest first: a kill in between leaves the indexes listing the
 series before that index and some unlisted files after it, which the next run deletes. No
 fsync: a kill of the process is covered, a crash of the machine is not. Tested by
-``run_scripts/kill_loop.py`` (hundreds of kill -9 at random moments).
+``run_scripts/tools/kill_loop.py`` (hundreds of kill -9 at random moments).
 """
 
 from __future__ import annotations

@@ -43,7 +43,7 @@ from .serial import History
 REBALANCE_EVERY = 2  # exchanges between balance checks (counts drift slowly)
 # Largest ghost refresh (doubles any rank sends per step, to all its neighbours together) that goes
 # through shared memory: above ~200 ghosts, messages (a single copy by MPICH) were faster here
-# (run_scripts/mpi_latency.py); below, shared memory saves the ~1.4 us message latency.
+# (run_scripts/benchmarks/mpi_latency.py); below, shared memory saves the ~1.4 us message latency.
 SHARED_HALO_LIMIT = HEADER + GHOST_VALUES * 200
 
 

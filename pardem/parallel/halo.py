@@ -18,8 +18,8 @@ writes its outgoing blocks there (same layout as a message buffer), publishes th
 with a release store, and reads its neighbours' blocks once their step numbers arrive (acquire
 loads). For 50 ghosts that took 0.6-1.7 us against 1.9-2.9 us for Irecv + Isend + Waitall,
 whose shared-memory messages move only inside an MPI call; from a few hundred ghosts on,
-messages are faster (``run_scripts/mpi_latency.py``), so the decomposition chooses by size at
-each exchange. Two buffers, alternating with the step's parity, keep a fast rank from
+messages are faster (``run_scripts/benchmarks/mpi_latency.py``), so the decomposition chooses by
+size at each exchange. Two buffers, alternating with the step's parity, keep a fast rank from
 overwriting blocks a neighbour is still reading: it cannot get two steps ahead, because every
 step waits for the neighbours' step numbers. A wait longer than ~5 us yields the core at every
 further look. ``PARDEM_HALO=messages`` forces messages.

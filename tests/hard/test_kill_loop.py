@@ -1,4 +1,4 @@
-"""Snapshots survive SIGKILL at any moment: a short run of run_scripts/kill_loop.py (the full
+"""Snapshots survive SIGKILL at any moment: a short run of run_scripts/tools/kill_loop.py (the full
 loop, 500 kills on 1 and 2 ranks, is a benchmark-style script; its counts are in
 docs/output.md). Every kill must leave a series equal, file for file, to an uninterrupted
 run's, and the runs continued from the kills' checkpoints must end in that run's state."""
@@ -8,7 +8,7 @@ from pathlib import Path
 
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "run_scripts"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "run_scripts" / "tools"))
 from kill_loop import kill_loop  # noqa: E402
 
 pytestmark = pytest.mark.slow
