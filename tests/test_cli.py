@@ -289,12 +289,12 @@ def test_a_full_disk_is_one_line_and_exit_4(tmp_path, capsys, monkeypatch):
     checkpoint (each is written under a temporary name first), exit status 4, no traceback."""
     import errno
 
-    import pardem.simulation
+    import pardem.run_output
 
     def full(path, *args):
         raise OSError(errno.ENOSPC, "No space left on device", str(path))
 
-    monkeypatch.setattr(pardem.simulation, "save_checkpoint", full)
+    monkeypatch.setattr(pardem.run_output, "save_checkpoint", full)
     out = tmp_path / "run"
     assert main(["run", str(SCENES / "two_small.toml"), "--out", str(out), "--end", "0.02",
                  "--quiet"]) == 4
