@@ -12,10 +12,11 @@ run, the command and the machine are written to RUNS/runs.json before the figure
 scene files and run information go to RESULTS (default results/paper, committed); the raw run
 folders (about 0.3 GB each) stay in RUNS, outside git.
 
-``--from-study DIR`` makes the figures and table from the roughness study's runs in DIR
-(``run_scripts/studies/roughness_study.py --runs DIR``) instead of running: seed 1 of A, B and
-C with the layout its rule picked, which are the shipped scenes (seed 1, that layout) under another
-name; the command and wall time of each come from its table in docs/roughness/runs/.
+``--from-study DIR`` makes the figures and table from the calibration study's runs in DIR
+(``run_scripts/studies/calibration_study.py --runs DIR``) instead of running: seeds 1-3 of A,
+B and C with the calibrated N_in, which are the shipped scenes (those seeds) under another
+name; every number is the seed mean with its standard error; the command and wall time of
+each come from its table in docs/roughness/runs/.
 """
 
 from __future__ import annotations
@@ -73,7 +74,7 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--only", nargs="+", default=["A", "B", "C"], choices=["A", "B", "C"])
     ap.add_argument("--skip-runs", action="store_true", help="figures and table only")
     ap.add_argument("--from-study", type=Path, metavar="DIR",
-                    help="figures and table from the roughness study's runs in DIR")
+                    help="figures and table from the calibration study's runs in DIR")
     args = ap.parse_args(argv)
     if args.from_study:
         return from_study(args.from_study, args.results)
@@ -97,28 +98,33 @@ def main(argv: list[str] | None = None) -> int:
 
 def from_study(runs: Path, results: Path) -> int:
     sys.path[:0] = [str(HERE), str(STUDIES)]
+    import calibration_study as cal  # noqa: E402
     import paper_figures  # noqa: E402
-    import roughness_study as study  # noqa: E402
+    import study_runs as rs  # noqa: E402
 
-    layout, _ = study.pick({name: study.rows_of(f"{name}-B") for name in study.LAYOUTS})
-    names = [f"{layout}-{x}-s1" for x in ("A", "B", "C")]
-    missing = [n for n in names if not (runs / n / "rings.h5").exists()
-               or not (study.TABLES / f"{n}.json").exists()]
+    n = cal.next_value(cal.points())[1]
+    if n is None:
+        raise SystemExit("--from-study: the calibration (calibration_study.py) chose no N_in yet")
+    names = {x: [f"{cal.cal_name(n, x)}-s{s}" for s in rs.SEEDS] for x in ("A", "B", "C")}
+    missing = [m for group in names.values() for m in group
+               if not (runs / m / "rings.h5").exists() or not (rs.TABLES / f"{m}.json").exists()]
     if missing:
         raise SystemExit(f"--from-study {runs}: no finished run {', '.join(missing)}")
     info = {}
-    for x, name in zip(("A", "B", "C"), names):
-        row = json.loads((study.TABLES / f"{name}.json").read_text())
-        info[x] = {"command": f"{row['command']} (roughness study, {row['ranks']} rank(s); "
-                              f"= couette_{x}.toml)", "wall_s": row["wall_s"],
-                   "ranks": row["ranks"]}
+    for x, group in names.items():
+        rows = [json.loads((rs.TABLES / f"{m}.json").read_text()) for m in group]
+        info[x] = {"command": f"{rows[0]['command']} (calibration study, N_in = {n}: "
+                              f"couette_{x}.toml with seeds {', '.join(map(str, rs.SEEDS))}; "
+                              f"{rows[0]['ranks']} rank each, mean wall time)",
+                   "wall_s": sum(r["wall_s"] for r in rows) / len(rows),
+                   "ranks": rows[0]["ranks"]}
     info["machine"] = machine()
     with tempfile.TemporaryDirectory() as tmp:
         info_path = Path(tmp) / "runs.json"  # comparison.json keeps it
         info_path.write_text(json.dumps(info, indent=2))
-        return paper_figures.main([str(runs / n) for n in names]
+        return paper_figures.main([str(runs / m) for group in names.values() for m in group]
                                   + ["--results", str(results), "--runs-info", str(info_path),
-                                     "--names", "A", "B", "C"])
+                                     "--names"] + [x for x, g in names.items() for _ in g])
 
 
 if __name__ == "__main__":
