@@ -25,6 +25,10 @@ table. Regions are in r~ = (r - R_i)/d~:
   (about 1: flat within the errors) and the fraction within 2 errors. Compared with the
   torque of the inner ring on the particles, from its contacts.
   shear_torque_total_*: the same with the kinetic stress, 2 pi h r^2 (sigma + sigma_kin)_phir.
+  bottom_torque_mean: the torque the bottom friction takes from the disks inside radius r,
+  sum of mu_b m g r v_phi/|v| over the moving ones, from the snapshots in the averaging
+  window, averaged over the same rings: in steady shear the inner ring's torque equals the
+  torque through a ring plus this one (the body force of the momentum balance).
 - mu_c_outer: median of mu_c/k'_n over 4 <= r~ <= 15 (the paper: mu_c grows with density;
   the median, because kappa_zr passes through zero in some rings); mu_c_band: the same over
   0.5 <= r~ <= 3 (the paper: smaller in the dilute band than in the dense outer part).
@@ -41,7 +45,9 @@ import numpy as np
 
 from pardem.scene_file import load_scene
 from pardem.check import volume_fraction
+from pardem.output.snapshots import read_snapshots
 from pardem.scales import normal_stiffness
+from pardem.state import FREE
 
 from .derived import exponential_fit, log_exponential_fit
 from .io import read_rings
@@ -83,6 +89,7 @@ def load_run(run_dir: str | Path, label: str | None = None, paper: str | None = 
             "scene": scene.info.name, "rings": rings,
             "k_n_2d": k_n / c.height, "k_t": k_t, "height": c.height, "d_ref": d_ref,
             "wall_speed": g.omega_inner * g.inner_radius, "r_in": g.inner_radius,
+            "bottom": c.mu_bottom * c.gravity if scene.effects.bottom_friction else 0.0,
             "nu_bar": global_volume_fraction(scene), "n_samples": rings["times"].size,
             "window": (float(rings["times"][0]), float(rings["times"][-1]))}
 
@@ -139,6 +146,7 @@ def metrics(run: dict) -> dict:
         dev = (values - values.mean()) / errs
         out[f"shear_torque_chi2{label}"] = float(np.sum(dev**2) / (dev.size - 1))
         out[f"shear_torque_within_2err{label}"] = float(np.mean(np.abs(dev) < 2))
+    out["bottom_torque_mean"] = bottom_torque(run, f["r_tilde"][zone])
     out["inner_torque"] = float(f["inner_torque"])
     out["inner_torque_err"] = float(f.get("inner_torque_err", math.nan))
     mu = f["mu_c"][_region(f, 4, 15)] / run["k_n_2d"]
@@ -152,6 +160,35 @@ def metrics(run: dict) -> dict:
         out[f"pressure_{zone}"] = _mean(0.5 * f["tr_sigma"][sel])
         out[f"pressure_kin_{zone}"] = _mean(f.get("pressure_kin", nan)[sel])
     return out
+
+
+def bottom_torque(run: dict, r_tilde: np.ndarray) -> float:
+    """The bottom friction's torque (N m) on the free disks inside r~, mean over r_tilde and
+    over the snapshots in the averaging window (NaN without snapshots; 0 without bottom
+    friction). A disk at rest (|v| = 0) is held by static friction no larger than the
+    sliding one and is left out."""
+    if run["bottom"] == 0.0:
+        return 0.0
+    folder = run["dir"].parent if run["dir"].name == "offline" else run["dir"]
+    if not (folder / "snapshots").is_dir():
+        return math.nan
+    lo, hi = run["window"]
+    edges = run["r_in"] + np.asarray(r_tilde) * run["d_ref"]
+    per_snapshot = []
+    for snap in read_snapshots(folder):
+        if not lo <= snap["time"] <= hi:
+            continue
+        free = snap["kind"] == FREE
+        x, v, m = snap["position"][free], snap["velocity"][free], snap["mass"][free]
+        r, speed = np.hypot(x[:, 0], x[:, 1]), np.hypot(v[:, 0], v[:, 1])
+        moving = speed > 0
+        torque = np.zeros(r.size)
+        torque[moving] = (run["bottom"] * m[moving] * (x[moving, 0] * v[moving, 1]
+                          - x[moving, 1] * v[moving, 0]) / speed[moving])  # mu_b g m r v_phi/|v|
+        order = np.argsort(r)
+        inside = np.searchsorted(r[order], edges, side="right")
+        per_snapshot.append(np.concatenate([[0.0], np.cumsum(torque[order])])[inside].mean())
+    return float(np.mean(per_snapshot)) if per_snapshot else math.nan
 
 
 def ring_torques(run: dict, kinetic: bool = False) -> np.ndarray:

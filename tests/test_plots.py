@@ -154,3 +154,33 @@ def test_runs_are_labelled_by_folder_and_compared_with_the_paper_only_when_they_
     assert main(["plot", str(small_run), str(other), "--label", "one", "two", "--out",
                  str(tmp_path / "f")]) == 0
     assert main(["plot", str(small_run), "--label", "a", "b"]) == 2
+
+
+def test_bottom_torque_sums_the_friction_of_the_moving_disks_inside_each_ring(small_run):
+    """mu_b m g r v_phi/|v| summed by hand over the free disks inside each ring edge of the
+    snapshots in the window; positive (the band turns with the ring, Omega > 0); 0 when the
+    scene has no bottom friction."""
+    from averaging.report import bottom_torque
+    from pardem.output.snapshots import read_snapshots
+
+    run = load_run(small_run)
+    scene = load_scene(small_run / "scene.toml")
+    r_tilde = np.array([1.0, 2.0, 3.0])
+    lo, hi = run["window"]
+    by_hand = []
+    for snap in read_snapshots(small_run):
+        if not lo <= snap["time"] <= hi:
+            continue
+        total = np.zeros(r_tilde.size)
+        for k in np.flatnonzero(snap["kind"] == 0):
+            (x, y), (vx, vy) = snap["position"][k], snap["velocity"][k]
+            speed, r = np.hypot(vx, vy), np.hypot(x, y)
+            if speed == 0:
+                continue
+            t = scene.contact.mu_bottom * scene.contact.gravity * snap["mass"][k] * (
+                x * vy - y * vx) / speed
+            total += t * (r <= run["r_in"] + r_tilde * run["d_ref"])
+        by_hand.append(total.mean())
+    assert by_hand and bottom_torque(run, r_tilde) == pytest.approx(np.mean(by_hand), rel=1e-9)
+    assert bottom_torque(run, r_tilde) > 0
+    assert bottom_torque({**run, "bottom": 0.0}, r_tilde) == 0.0
