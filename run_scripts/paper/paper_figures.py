@@ -23,6 +23,7 @@ from pathlib import Path
 
 from averaging.plots import make_figures
 from averaging.report import PAPER, load_run, metrics
+from differences import difference_lines
 from paper_claims import claim_table, stat
 
 
@@ -101,6 +102,8 @@ def table(runs: list[dict], m: dict[str, dict], info: dict, groups: dict) -> str
     lines += ["| check | result |", "|---|---|"]
     lines += [f"| {label} | {'yes' if ok else 'no'} |" for label, ok in checks]
     lines += ["", "## What the paper states, against ours", ""] + claim_table(groups)
+    if any(len(g) > 1 for g in groups.values()):  # the study's seeds: explain what differs
+        lines += ["", "## Why they differ", ""] + difference_lines(groups)
     if info:
         lines += ["", "## Runs", "", "| run | command | wall time |", "|---|---|---|"]
         for n in names:
