@@ -62,9 +62,10 @@ def exponential_fit(r_tilde: np.ndarray, v: np.ndarray, lo: float = 0.25, hi: fl
     """The primary fit (docs/roughness.md): v = v0 exp(-r_tilde/s) by ordinary least squares
     on v itself over lo <= r_tilde <= hi (the paper's range), every ring one point of equal
     weight. For a given s the best v0 is sum(v e)/sum(e^2), e = exp(-r/s); s by golden-section
-    search of the residual over 0.05 <= s <= 50. NaN if fewer than 3 finite values."""
+    search of the residual over 0.05 <= s <= 50. NaN if fewer than 3 finite values, or if no
+    ring moves (v = 0 everywhere: no decay to fit; any s fits with v0 = 0)."""
     sel = (r_tilde >= lo) & (r_tilde <= hi) & np.isfinite(v)
-    if sel.sum() < 3:
+    if sel.sum() < 3 or not np.any(v[sel] != 0):
         return math.nan, math.nan
     r, v = r_tilde[sel], v[sel]
 
