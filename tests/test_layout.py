@@ -10,6 +10,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 SOURCES = sorted(p for package in ("pardem", "averaging") for p in (ROOT / package).rglob("*.py"))
 MAX_LINES = 350
+MAX_SCRIPT_LINES = 400
 MAX_ARGS = 12
 
 
@@ -26,6 +27,12 @@ def test_modules_are_small():
     long = {str(p.relative_to(ROOT)): n for p in SOURCES
             if (n := len(p.read_text().splitlines())) > MAX_LINES}
     assert not long, f"modules over {MAX_LINES} lines: {long}"
+
+
+def test_run_scripts_are_small():
+    long = {str(p.relative_to(ROOT)): n for p in sorted((ROOT / "run_scripts").rglob("*.py"))
+            if (n := len(p.read_text().splitlines())) > MAX_SCRIPT_LINES}
+    assert not long, f"scripts over {MAX_SCRIPT_LINES} lines: {long}"
 
 
 def test_no_jitted_function_takes_more_than_twelve_positional_arguments():
