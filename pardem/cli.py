@@ -105,20 +105,20 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "warmup":
         return _warmup(args)
     t_start = time.perf_counter()
-    from .parallel import abort, world
+    from .parallel import abort, on_root, rank_of, world
     from .scene import SceneError
     from .scene_file import load_scene
     from .simulation import Simulation, SimulationError
     from .stop import Interrupted, catching_signals
 
     comm = world()  # None on one process: MPI is not loaded
-    rank = comm.Get_rank() if comm is not None else 0
+    rank = rank_of(comm)
     root = rank == 0
     out = Path(args.out or "runs")
     try:
         scene = load_scene(args.scene)
         out = Path(args.out) if args.out else Path("runs") / scene.info.name
-        _collective(comm, _check_writable, out)
+        on_root(comm, _check_writable, out)
         if root:  # the first run with a set of effects spends a minute in numba
             sys.stderr.write(f"pardem: {scene.info.name}: building the initial state and the "
                              "compiled kernels (compiled on the first run with this scene's set "
@@ -190,17 +190,17 @@ def _warmup(args) -> int:
     -n P`` it compiles what a P-rank run needs (the step loop with the ghost exchange)."""
     import tempfile
 
-    from .parallel import abort, world
+    from .parallel import abort, barrier, broadcast, rank_of, size_of, world
     from .scene import SceneError
     from .scene_file import load_scene
     from .warmup import warm_up
 
     comm = world()
-    root = comm is None or comm.Get_rank() == 0
+    root = rank_of(comm) == 0
     for path in args.scenes:
         t0 = time.perf_counter()
         tmp = tempfile.mkdtemp(prefix="pardem-warmup-") if root else None
-        tmp = comm.bcast(tmp) if comm is not None else tmp
+        tmp = broadcast(comm, tmp)
         try:
             warm_up(load_scene(path), tmp, comm)
         except SceneError as e:  # in the file, or found building the state (placement, dt)
@@ -215,12 +215,11 @@ def _warmup(args) -> int:
                 abort(comm)
             raise
         finally:
-            if comm is not None:
-                comm.Barrier()
+            barrier(comm)
             if root:
                 shutil.rmtree(tmp, ignore_errors=True)
         if root:
-            ranks = "" if comm is None else f" for {comm.Get_size()} ranks"
+            ranks = "" if comm is None else f" for {size_of(comm)} ranks"
             print(f"{path}: kernels ready{ranks} in {time.perf_counter() - t0:.1f} s")
     return 0
 
@@ -290,23 +289,6 @@ def _plot(args) -> int:
     for path in make_figures(runs, out):
         print(path)
     return 0
-
-
-def _collective(comm, fn, *args) -> None:
-    """Run fn on rank 0; if it raises, raise the same error on every rank (comm None: one
-    process)."""
-    if comm is None:
-        fn(*args)
-        return
-    error = None
-    if comm.Get_rank() == 0:
-        try:
-            fn(*args)
-        except Exception as e:  # re-raised on every rank below
-            error = e
-    error = comm.bcast(error, root=0)
-    if error is not None:
-        raise error
 
 
 def _check_writable(out: Path) -> None:

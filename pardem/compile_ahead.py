@@ -28,6 +28,7 @@ from numba.core import types
 
 from .contact.history import NO_HISTORY
 from .forces import ForceWork, contact_forces
+from .parallel import barrier
 from .ring_forces import ring_contacts
 from .rebuild import exchange_counts
 
@@ -56,7 +57,7 @@ def _compile(decomp, groups: list[list]) -> None:
             kernel.compile(signature() if callable(signature) else signature)
         except Exception:  # noqa: BLE001  (compiled again, and reported, at the call)
             pass
-    decomp.comm.Barrier()
+    barrier(decomp.comm)
 
 
 def _first_groups(decomp) -> list[list]:

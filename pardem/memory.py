@@ -33,7 +33,7 @@ import resource
 from contextlib import contextmanager
 from pathlib import Path
 
-from .parallel import smallest_node_share
+from .parallel import size_of, smallest_node_share
 from .scene import Scene, SceneError
 from .walls import wall_layout
 
@@ -153,7 +153,7 @@ def prepare_memory(scene: Scene, comm=None) -> None:
     resident = 1024.0 * resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
     need = needed_bytes(scene)
     if need - min(resident, BASE_BYTES) > share:
-        ranks = 1 if comm is None else comm.Get_size()
+        ranks = size_of(comm)
         raise SceneError(
             f"{particle_count(scene)} particles (wall disks included) need about "
             f"{size_text(need)} per rank at set-up (~{BYTES_PER_PARTICLE} bytes per particle: "

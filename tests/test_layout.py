@@ -106,6 +106,29 @@ def test_mpi_is_imported_only_under_pardem_parallel():
     assert not found, f"MPI reached outside pardem/parallel: {found}"
 
 
+MPI_METHODS = {"Barrier", "Get_rank", "Get_size", "Abort", "Allreduce", "Bcast", "Split_type",
+               "Free", "Isend", "Irecv", "Waitall"}
+
+
+def test_communicators_are_used_only_under_pardem_parallel():
+    """Outside pardem/parallel/ no module calls a communicator's methods (mpi4py's capitalised
+    ones, or bcast/allreduce on a ``comm``): the front goes through parallel's helpers."""
+    parallel = ROOT / "pardem" / "parallel"
+    found = []
+    for path in SOURCES:
+        if parallel in path.parents:
+            continue
+        for node in ast.walk(ast.parse(path.read_text())):
+            if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)):
+                continue
+            owner = ast.unparse(node.func.value)
+            if node.func.attr in MPI_METHODS or (
+                    node.func.attr in ("bcast", "allreduce", "gather")
+                    and (owner == "comm" or owner.endswith(".comm"))):
+                found.append(f"{path.relative_to(ROOT)}:{node.lineno} {owner}.{node.func.attr}")
+    assert not found, found
+
+
 def test_a_serial_run_loads_no_mpi(tmp_path):
     """A free scene run on one process, with output: neither mpi4py nor libmpi is loaded."""
     code = """

@@ -80,3 +80,37 @@ def abort(comm, code: int = 1) -> None:
     if comm is not None and comm.Get_size() > 1:
         time.sleep(0.5)
         comm.Abort(code)
+
+
+# The collectives the front (cli, compile_ahead, warmup) needs, for a communicator or None
+# (one process, MPI not loaded): the only places outside parallel/ that reach ranks.
+
+def rank_of(comm) -> int:
+    return comm.Get_rank() if comm is not None else 0
+
+
+def size_of(comm) -> int:
+    return comm.Get_size() if comm is not None else 1
+
+
+def broadcast(comm, value):
+    """Rank 0's ``value`` on every rank."""
+    return comm.bcast(value, root=0) if comm is not None else value
+
+
+def barrier(comm) -> None:
+    if comm is not None:
+        comm.Barrier()
+
+
+def on_root(comm, fn, *args) -> None:
+    """Run fn on rank 0; if it raises, raise the same error on every rank."""
+    error = None
+    if rank_of(comm) == 0:
+        try:
+            fn(*args)
+        except Exception as e:  # re-raised on every rank below
+            error = e
+    error = broadcast(comm, error)
+    if error is not None:
+        raise error
