@@ -91,18 +91,23 @@ def test_no_import_circle_among_modules():
             assert cycle is None, " -> ".join(cycle[cycle.index(cycle[-1]):])
 
 
-def test_mpi_is_imported_only_under_pardem_parallel():
+def _nodes_outside_parallel():
+    """(path, node) of every syntax node of the modules outside pardem/parallel/."""
     parallel = ROOT / "pardem" / "parallel"
-    found = []
     for path in SOURCES:
-        if parallel in path.parents:
-            continue
-        for node in ast.walk(ast.parse(path.read_text())):
-            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
-                     [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
-            if any(n.split(".")[0] == "mpi4py" or n.endswith("parallel.native")
-                   or n.endswith("parallel.halo") or n.endswith("parallel.comm") for n in names):
-                found.append(str(path.relative_to(ROOT)))
+        if parallel not in path.parents:
+            for node in ast.walk(ast.parse(path.read_text())):
+                yield path, node
+
+
+def test_mpi_is_imported_only_under_pardem_parallel():
+    found = []
+    for path, node in _nodes_outside_parallel():
+        names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                 [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+        if any(n.split(".")[0] == "mpi4py" or n.endswith("parallel.native")
+               or n.endswith("parallel.halo") or n.endswith("parallel.comm") for n in names):
+            found.append(str(path.relative_to(ROOT)))
     assert not found, f"MPI reached outside pardem/parallel: {found}"
 
 
@@ -113,19 +118,15 @@ MPI_METHODS = {"Barrier", "Get_rank", "Get_size", "Abort", "Allreduce", "Bcast",
 def test_communicators_are_used_only_under_pardem_parallel():
     """Outside pardem/parallel/ no module calls a communicator's methods (mpi4py's capitalised
     ones, or bcast/allreduce on a ``comm``): the front goes through parallel's helpers."""
-    parallel = ROOT / "pardem" / "parallel"
     found = []
-    for path in SOURCES:
-        if parallel in path.parents:
+    for path, node in _nodes_outside_parallel():
+        if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)):
             continue
-        for node in ast.walk(ast.parse(path.read_text())):
-            if not (isinstance(node, ast.Call) and isinstance(node.func, ast.Attribute)):
-                continue
-            owner = ast.unparse(node.func.value)
-            if node.func.attr in MPI_METHODS or (
-                    node.func.attr in ("bcast", "allreduce", "gather")
-                    and (owner == "comm" or owner.endswith(".comm"))):
-                found.append(f"{path.relative_to(ROOT)}:{node.lineno} {owner}.{node.func.attr}")
+        owner = ast.unparse(node.func.value)
+        if node.func.attr in MPI_METHODS or (
+                node.func.attr in ("bcast", "allreduce", "gather")
+                and (owner == "comm" or owner.endswith(".comm"))):
+            found.append(f"{path.relative_to(ROOT)}:{node.lineno} {owner}.{node.func.attr}")
     assert not found, found
 
 
