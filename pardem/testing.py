@@ -42,6 +42,12 @@ def two_disks(d: float, m: float, dt, phase: float = 0.0, integrator: str = "ver
         "scene": {"name": "two-disks", "kind": "free", "seed": 1}, "particles": ps,
         "effects": no, "contact": {"k_n": k_n, "gamma_n": gamma_n, "k_t": 0.0, "mu": 0.0},
         "time": {"dt": dt, "end": 1.0, "integrator": integrator}}))
+    return (sim, *head_on_probes(d))
+
+
+def head_on_probes(d: float):
+    """``(overlap(sim), approach_speed(sim))`` of two disks of diameter d meeting along x,
+    particle 0 on the left."""
     def overlap(s):
         x = s.gathered("position")["position"]
         return d - (x[1, 0] - x[0, 0])
@@ -50,7 +56,7 @@ def two_disks(d: float, m: float, dt, phase: float = 0.0, integrator: str = "ver
         v = s.gathered("velocity")["velocity"]
         return v[0, 0] - v[1, 0]
 
-    return sim, overlap, approach
+    return overlap, approach
 
 
 def measure(sim, overlap, rel_speed, max_steps: int = 200_000) -> tuple[float, float]:

@@ -13,7 +13,7 @@ from pardem.scene import SceneError
 from pardem.scene_file import scene_to_toml
 from pardem.schema import scene_from_dict
 from pardem.simulation import Simulation
-from pardem.testing import measure
+from pardem.testing import head_on_probes, measure
 
 D, M, V = 0.01, 1e-3, 0.1  # diameter (m), mass (kg), approach speed (m/s) of the two disks
 E, NU = 1e7, 0.3  # Young's modulus (Pa), Poisson's ratio
@@ -30,16 +30,7 @@ def collision(contact: dict, dt: float, damping: bool = False):
     sim = Simulation(scene_from_dict({
         "scene": {"name": "two-disks", "kind": "free"}, "particles": ps, "effects": effects,
         "contact": contact, "time": {"dt": dt, "end": 1.0}}))
-
-    def overlap(s):
-        x = s.gathered("position")["position"]
-        return D - (x[1, 0] - x[0, 0])
-
-    def approach(s):
-        v = s.gathered("velocity")["velocity"]
-        return v[0, 0] - v[1, 0]
-
-    return sim, overlap, approach
+    return (sim, *head_on_probes(D))
 
 
 def hertz_contact_time() -> float:
