@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from pardem.state import INNER_WALL
+from pardem.sampling import INNER_WALL
 
 
 def inner_ring_torque(particles: dict, contacts: dict, ring_contacts: dict | None) -> float:

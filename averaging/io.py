@@ -14,7 +14,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from pardem.output.atomic import size_of, writing
+from pardem.sampling import size_of, writing
 
 from .fields import COLUMNS, FIELD_UNITS, UNITS
 from .mesh import write_rings_vtu

@@ -11,14 +11,9 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-from pardem.output.averages import ring_width as default_ring_width
-from pardem.output.snapshots import read_snapshots
-from pardem.scene import SceneError
-from pardem.scene_file import load_scene
-from pardem.output.writers import is_sample_step, sample_range
-from pardem.schema import ring_width_problem
-from pardem.scales import normal_stiffness
-from pardem.timestep import resolve_dt
+from pardem.sampling import (SceneError, is_sample_step, load_scene, normal_stiffness,
+                             read_snapshots, resolve_dt, ring_width_problem, sample_range)
+from pardem.sampling import ring_width as default_ring_width
 
 from .sample import snapshot_sample
 from .timeavg import RingAverager

@@ -16,7 +16,7 @@ import math
 import numba as nb
 import numpy as np
 
-from pardem.jit import JIT
+from pardem.sampling import JIT
 
 REACH = 1.35  # neighbour distance in diameters of the species
 

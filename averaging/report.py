@@ -43,11 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from pardem.scene_file import load_scene
-from pardem.check import volume_fraction
-from pardem.output.snapshots import read_snapshots
-from pardem.scales import normal_stiffness
-from pardem.state import FREE
+from pardem.sampling import (FREE, load_scene, normal_stiffness, read_snapshots,
+                             volume_fraction)
 
 from .derived import exponential_fit, log_exponential_fit
 from .io import read_rings

@@ -16,8 +16,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pardem.scene import SceneError
-from pardem.state import INNER_WALL
+from pardem.sampling import INNER_WALL, SceneError
 
 from .boundary import inner_ring_torque, torque_on
 

@@ -14,7 +14,7 @@ import math
 import numba as nb
 import numpy as np
 
-from pardem.jit import JIT
+from pardem.sampling import JIT
 
 from .fields import N_COLUMNS, S
 from .weights import extent, ring_weights

@@ -29,7 +29,7 @@ import math
 import numba as nb
 import numpy as np
 
-from pardem.jit import JIT
+from pardem.sampling import JIT
 
 SLICE, EXACT, CENTRE, GAUSSIAN = 0, 1, 2, 3
 WEIGHTINGS = {"slice": SLICE, "exact": EXACT, "centre": CENTRE, "gaussian": GAUSSIAN}

@@ -309,7 +309,7 @@ def test_default_ring_width_follows_the_smallest_diameter():
     particle size (a cell of 2 mm disks gets 0.25 mm rings, not the paper's 0.93 mm)."""
     from helpers import couette_scene
 
-    from pardem.output.averages import ring_width
+    from pardem.sampling import ring_width
     from pardem.schema import scene_from_dict
 
     scene = couette_scene(averaging={"start": 0.0, "end": 1.0})

@@ -91,6 +91,20 @@ def test_no_import_circle_among_modules():
             assert cycle is None, " -> ".join(cycle[cycle.index(cycle[-1]):])
 
 
+def test_averaging_reaches_pardem_only_through_sampling():
+    """Every import of pardem in averaging/ (at any level) is of pardem.sampling: the one
+    interface between a run and the fields built from it."""
+    found = []
+    for path in sorted((ROOT / "averaging").glob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text())):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import) else
+                     [node.module or ""] if isinstance(node, ast.ImportFrom) and not node.level
+                     else [])
+            found += [f"{path.name}: {n}" for n in names
+                      if n.split(".")[0] == "pardem" and n != "pardem.sampling"]
+    assert not found, f"averaging/ imports pardem's internals: {found}"
+
+
 def _nodes_outside_parallel():
     """(path, node) of every syntax node of the modules outside pardem/parallel/."""
     parallel = ROOT / "pardem" / "parallel"

@@ -17,6 +17,7 @@ import json
 import numpy as np
 
 from ..scene import SceneError
+from ..sampling import ring_width
 from ..scales import normal_stiffness
 from .writers import sample_steps
 
@@ -43,14 +44,6 @@ def make_averager(scene, free_radii: np.ndarray, reducer):
     return RingAverager(g.inner_radius, g.outer_radius, ring_width(scene), cfg.weighting,
                         scene.contact.height, d_ref, normal_stiffness(scene)[1],
                         g.omega_inner, reducer)
-
-
-def ring_width(scene) -> float:
-    """[averaging] ring_width (m), "auto": the smallest free-particle diameter / 8 (the
-    paper's d_small/8)."""
-    cfg = scene.averaging
-    return (cfg.ring_width if cfg is not None and cfg.ring_width is not None
-            else scene.min_free_diameter / 8.0)
 
 
 def sample_grid(scene, dt: float, last_step: int) -> np.ndarray:
