@@ -23,8 +23,8 @@ Glossary (SI units throughout):
 from importlib.metadata import PackageNotFoundError, version
 
 from .output.snapshots import read_snapshots
-from .scene import Scene, SceneError
-from .scene_file import load_scene
+from .input.scene import Scene, SceneError
+from .input.scene_file import load_scene
 from .simulation import Simulation, SimulationError
 
 try:

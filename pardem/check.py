@@ -10,12 +10,12 @@ packing change it by a factor of two).
 from __future__ import annotations
 
 
-from .memory import needed_bytes, particle_count, size_text
-from .scene import Scene
-from .scene_file import scene_to_toml
-from .scales import smallest_contact_time
-from .stability import stability_limit
-from .timestep import off_step_text, resolve_step
+from .core.memory import needed_bytes, particle_count, size_text
+from .input.scene import Scene
+from .input.scene_file import scene_to_toml
+from .core.scales import smallest_contact_time
+from .core.stability import stability_limit
+from .core.timestep import off_step_text, resolve_step
 from .walls import global_volume_fraction
 
 REFERENCE_RATE = 25e6

@@ -106,8 +106,8 @@ def main(argv: list[str] | None = None) -> int:
         return _warmup(args)
     t_start = time.perf_counter()
     from .parallel import abort, on_root, rank_of, world
-    from .scene import SceneError
-    from .scene_file import load_scene
+    from .input.scene import SceneError
+    from .input.scene_file import load_scene
     from .simulation import Simulation, SimulationError
     from .stop import Interrupted, catching_signals
 
@@ -191,8 +191,8 @@ def _warmup(args) -> int:
     import tempfile
 
     from .parallel import abort, barrier, broadcast, rank_of, size_of, world
-    from .scene import SceneError
-    from .scene_file import load_scene
+    from .input.scene import SceneError
+    from .input.scene_file import load_scene
     from .warmup import warm_up
 
     comm = world()
@@ -226,8 +226,8 @@ def _warmup(args) -> int:
 
 def _check(args) -> int:
     from .check import describe
-    from .scene import SceneError
-    from .scene_file import load_scene
+    from .input.scene import SceneError
+    from .input.scene_file import load_scene
 
     try:
         print(describe(load_scene(args.scene)))
@@ -240,7 +240,7 @@ def _check(args) -> int:
 def _average(args) -> int:
     from averaging.offline import average_run
 
-    from .scene import SceneError
+    from .input.scene import SceneError
 
     try:
         avg = average_run(args.run_dir, args.start, args.end, args.ring_width, args.weighting,
@@ -292,7 +292,7 @@ def _plot(args) -> int:
 
 
 def _check_writable(out: Path) -> None:
-    from .scene import SceneError
+    from .input.scene import SceneError
 
     try:
         out.mkdir(parents=True, exist_ok=True)

@@ -27,10 +27,10 @@ import numpy as np
 from numba.core import types
 
 from .contact.history import NO_HISTORY
-from .forces import ForceWork, contact_forces
+from .core.forces import ForceWork, contact_forces
 from .parallel import barrier
 from .ring_forces import ring_contacts
-from .rebuild import exchange_counts
+from .core.rebuild import exchange_counts
 
 
 def compile_first(decomp) -> None:
@@ -72,7 +72,7 @@ def _first_groups(decomp) -> list[list]:
 
 def _groups(sim, history) -> list[list]:
     """Per rank, the kernels to compile and their signatures."""
-    from .neighbors import build_lists
+    from .core.neighbors import build_lists
     from .parallel.exchange import _refresh_plan  # loads libmpi: parallel only
 
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
@@ -122,7 +122,7 @@ def _first_step(sim, state, f8) -> tuple[list, list, list]:
     """The kernels of the output, averaging and exchange test (compiled lazily otherwise, all
     ranks at once): rank 0's share (after the migration) and rank 1's, before and after its
     list (which starts with the refresh plan that rank 0's migration needs from it)."""
-    from . import diagnostics as diag
+    from .core import diagnostics as diag
     from .parallel.cut import largest_move
 
     n, prm = types.int64, nb.typeof(sim.prm)

@@ -10,7 +10,7 @@ import numba as nb
 from .contact.model import history_width, surface_contact
 from .contact.overlap import MAX_OVERLAP
 from .contact.overlap import note_deep
-from .jit import JIT
+from .core.jit import JIT
 from .walls import outer_radius, ring_surface
 
 

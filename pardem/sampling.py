@@ -18,16 +18,16 @@ averaging, and a reader sees in one place what the averaging assumes about a run
 from __future__ import annotations
 
 from .check import volume_fraction
-from .errors import SceneError
-from .jit import JIT
+from .input.errors import SceneError
+from .core.jit import JIT
 from .output.atomic import size_of, writing
 from .output.snapshots import read_snapshots
 from .output.writers import is_sample_step, sample_range
-from .scales import normal_stiffness
-from .scene_file import load_scene
-from .schema import ring_width_problem
-from .state import FREE, INNER_WALL
-from .timestep import resolve_dt
+from .core.scales import normal_stiffness
+from .input.scene_file import load_scene
+from .input.schema import ring_width_problem
+from .core.state import FREE, INNER_WALL
+from .core.timestep import resolve_dt
 
 __all__ = ["FREE", "INNER_WALL", "JIT", "SceneError", "is_sample_step", "load_scene",
            "normal_stiffness", "read_snapshots", "resolve_dt", "ring_width",

@@ -35,20 +35,19 @@ from .output.folder import FolderLock, claim, lock_unchanged
 from .output.averages import make_averager, resume
 from .output.writers import Checkpoints, Every, Snapshots
 from .parallel import GHOST_MARGIN_SKINS, decomposition
-from .memory import prepare_memory, reuse_freed_arrays
-from .placement import initial_configuration, rank_share
-from .neighbors import WALL_SKINS
-from .rebuild import place_idle_walls, rebuild, rebuild_on_request
+from .core.memory import prepare_memory, reuse_freed_arrays
+from .input.placement import initial_configuration, rank_share
+from .core.neighbors import WALL_SKINS
+from .core.rebuild import place_idle_walls, rebuild, rebuild_on_request
 from . import stop
-from .scene import Scene, SceneError
-from .scene_file import write_scene
-from .state import Params, new_clock, new_pairs
-from .step import (BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP, StepOptions,
-                   make_stepper)
-from .timestep import check_step_count, resolve_step
-from .watchdog import bad_particle_message, too_deep_message
+from .input.scene import Scene, SceneError
+from .input.scene_file import write_scene
+from .core.state import Params, new_clock, new_pairs
+from .core.step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP, StepOptions, make_stepper
+from .core.timestep import check_step_count, resolve_step
+from .core.watchdog import bad_particle_message, too_deep_message
 from .views import StateViews
-from .run_output import RunOutput
+from .output.run_output import RunOutput
 from .walls import rings_of, wall_layout
 
 

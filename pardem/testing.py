@@ -18,11 +18,11 @@ from unittest import mock
 
 import numpy as np
 
-from .schema import scene_from_dict
+from .input.schema import scene_from_dict
 from .simulation import Simulation
 from .contact.model import contact_time
-from .scales import smallest_contact_time
-from .stability import stability_limit
+from .core.scales import smallest_contact_time
+from .core.stability import stability_limit
 
 D_S, M_S = 7.42e-3, 0.275e-3  # the paper's small disks (m, kg)
 

@@ -11,7 +11,7 @@ from typing import NamedTuple
 
 import numpy as np
 
-from . import diagnostics as diag
+from .core import diagnostics as diag
 from .walls import outer_radius
 
 

@@ -16,8 +16,8 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from .jit import INLINE, JIT
-from .state import INNER_WALL
+from .core.jit import INLINE, JIT
+from .core.state import INNER_WALL
 
 
 class Rings(NamedTuple):

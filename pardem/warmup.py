@@ -11,8 +11,8 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from .rebuild import rebuild_on_request
-from .scene import Scene
+from .core.rebuild import rebuild_on_request
+from .input.scene import Scene
 from .simulation import Simulation
 
 

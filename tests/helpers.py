@@ -5,7 +5,7 @@ from __future__ import annotations
 import math
 import time
 
-from pardem.schema import scene_from_dict
+from pardem.input.schema import scene_from_dict
 from pardem.testing import dense_packing  # noqa: F401 (re-exported for the tests)
 
 D_SMALL, M_SMALL = 7.42e-3, 0.275e-3

@@ -243,7 +243,7 @@ def test_in_situ_and_offline_averaging_agree(tmp_path):
 
     from averaging.io import read_rings
     from pardem.cli import main
-    from pardem.scene_file import write_scene
+    from pardem.input.scene_file import write_scene
 
     g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
          "compression_time": 0.1, "omega_inner": 3.0}
@@ -310,7 +310,7 @@ def test_default_ring_width_follows_the_smallest_diameter():
     from helpers import couette_scene
 
     from pardem.sampling import ring_width
-    from pardem.schema import scene_from_dict
+    from pardem.input.schema import scene_from_dict
 
     scene = couette_scene(averaging={"start": 0.0, "end": 1.0})
     assert scene.averaging.ring_width is None

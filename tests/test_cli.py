@@ -11,7 +11,7 @@ from helpers import analytic_collision
 
 import pardem
 from pardem.cli import main
-from pardem.timestep import resolve_dt
+from pardem.core.timestep import resolve_dt
 
 SCENES = Path(__file__).parent / "scenes"
 SHIPPED = Path(__file__).parents[1] / "run_scripts" / "scenes"
@@ -129,12 +129,12 @@ def test_a_scene_too_large_for_the_memory_is_refused_before_allocating(tmp_path,
     file; at ~600 B per particle they need ~559 GiB per rank. Refused before the placement
     allocates anything (without the check numpy raises MemoryError there), on a node that has
     64 GiB available."""
-    import pardem.memory
+    import pardem.core.memory
     from helpers import couette_scene
 
-    from pardem.scene_file import write_scene
+    from pardem.input.scene_file import write_scene
 
-    monkeypatch.setattr(pardem.memory, "available_bytes", lambda: 64.0 * 2**30)
+    monkeypatch.setattr(pardem.core.memory, "available_bytes", lambda: 64.0 * 2**30)
     scene = couette_scene(counts=(10**9, 0), geometry={
         "inner_radius": 62.0, "outer_radius": 300.0, "outer_start_radius": 320.0,
         "compression_time": 100.0, "omega_inner": 1e-3, "inner_wall_count": 8000,
@@ -289,12 +289,12 @@ def test_a_full_disk_is_one_line_and_exit_4(tmp_path, capsys, monkeypatch):
     checkpoint (each is written under a temporary name first), exit status 4, no traceback."""
     import errno
 
-    import pardem.run_output
+    import pardem.output.run_output
 
     def full(path, *args):
         raise OSError(errno.ENOSPC, "No space left on device", str(path))
 
-    monkeypatch.setattr(pardem.run_output, "save_checkpoint", full)
+    monkeypatch.setattr(pardem.output.run_output, "save_checkpoint", full)
     out = tmp_path / "run"
     assert main(["run", str(SCENES / "two_small.toml"), "--out", str(out), "--end", "0.02",
                  "--quiet"]) == 4

@@ -8,7 +8,7 @@ import pytest
 
 from pardem.contact.lanes import BATCH
 from pardem.contact.model import ContactOptions, LawParams, contact_law, pair_force
-from pardem.forces import RECHECK, contact_forces, new_work
+from pardem.core.forces import RECHECK, contact_forces, new_work
 
 LAW = LawParams(dt=1e-4, k_n=352.1, gamma_n=0.19, k_t=267.1, mu=0.44, gamma_t=0.05, k_r=100.0,
                 mu_r=0.1)

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 from helpers import D_SMALL, K_T, M_SMALL, couette_scene
 
-from pardem.scene import SceneError
+from pardem.input.scene import SceneError
 from pardem.simulation import Simulation
 
 A = D_SMALL / 2

@@ -5,7 +5,7 @@ import pytest
 from helpers import couette_scene
 
 from averaging.boundary import inner_ring_torque
-from pardem.neighbors import WALL_SKINS, next_wall_skin
+from pardem.core.neighbors import WALL_SKINS, next_wall_skin
 from pardem.simulation import Simulation
 from pardem.testing import brute_force_pairs
 

@@ -8,9 +8,9 @@ import numpy as np
 import pytest
 
 from pardem.parallel import choice, cut
-from pardem.sorted_runs import merge_slots
-from pardem.state import (FREE, move_rows, new_particles, packed, particle_fields, row_columns,
-                          row_width, unpack_particles)
+from pardem.core.sorted_runs import merge_slots
+from pardem.core.state import (FREE, move_rows, new_particles, packed, particle_fields, row_columns,
+                               row_width, unpack_particles)
 
 EDGE_SETS = {
     "2 ranks, one wedge wider than pi": [-2.0, 2.4],

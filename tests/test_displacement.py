@@ -21,7 +21,7 @@ from averaging.fields import COL
 from averaging.sample import sample_simulation
 from averaging.timeavg import RingAverager
 from pardem.output.snapshots import read_snapshots
-from pardem.scene import AveragingCfg
+from pardem.input.scene import AveragingCfg
 from pardem.simulation import Simulation
 
 

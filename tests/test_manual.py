@@ -15,7 +15,7 @@ import scaling_tables  # noqa: E402
 from input_reference import PAGE, render  # noqa: E402
 
 from pardem.check import describe  # noqa: E402
-from pardem.scene_file import load_scene  # noqa: E402
+from pardem.input.scene_file import load_scene  # noqa: E402
 
 
 def test_input_reference_is_generated_from_the_current_schema():
@@ -31,7 +31,7 @@ def test_scaling_tables_are_generated_from_the_committed_results():
 def test_every_key_the_validator_accepts_is_in_the_input_reference():
     """schema._TABLES is what scene_from_dict checks against: a table added there but not to
     the generator would be accepted yet undocumented."""
-    from pardem.schema import _TABLES
+    from pardem.input.schema import _TABLES
 
     text = PAGE.read_text()
     for table, keys in _TABLES.items():

@@ -1,4 +1,4 @@
-"""A run gives the arrays it frees back to the operating system (pardem.memory)."""
+"""A run gives the arrays it frees back to the operating system (pardem.core.memory)."""
 
 import subprocess
 import sys
@@ -12,7 +12,7 @@ KEEPS = """
 import contextlib
 import sys
 import numpy as np
-from pardem.memory import reuse_freed_arrays, unmap_freed_arrays, unmapped
+from pardem.core.memory import reuse_freed_arrays, unmap_freed_arrays, unmapped
 
 def anon():
     with open("/proc/self/status") as f:

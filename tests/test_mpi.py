@@ -14,7 +14,7 @@ import pytest
 from helpers import couette_scene
 from mpi_helpers import MPI_DIR, assert_same_state, dump_state, run_mpi
 
-from pardem.scene_file import write_scene
+from pardem.input.scene_file import write_scene
 
 QUICK = Path(__file__).parents[1] / "run_scripts" / "scenes" / "couette_quick.toml"
 

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from pardem.contact.history import carry_history, merge_history
-from pardem.neighbors import build_pairs
-from pardem.sorted_runs import run_order
+from pardem.core.neighbors import build_pairs
+from pardem.core.sorted_runs import run_order
 from pardem.testing import brute_force_pairs
 
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from pardem.contact.model import ContactOptions, contact_law
-from pardem.scene import SceneError
-from pardem.scene_file import scene_to_toml
-from pardem.schema import scene_from_dict
+from pardem.input.scene import SceneError
+from pardem.input.scene_file import scene_to_toml
+from pardem.input.schema import scene_from_dict
 from pardem.simulation import Simulation
 from pardem.testing import head_on_probes, measure
 
@@ -78,7 +78,7 @@ def test_hertz_tangential_stiffness_follows_the_contact_radius():
     """Mindlin: k_t = 8 G* sqrt(R* delta), G* = G/(2 (2 - nu)), G = E/(2 (1 + nu)); a sticking
     spring after one step of tangential velocity u carries f_t = k_t u dt."""
     from pardem.contact.model import law_params
-    from pardem.scene import Contact
+    from pardem.input.scene import Contact
 
     law = law_params(Contact(**HERTZ), 1e-5)
     g_star = E / (2 * (1 + NU)) / (2 * (2 - NU))
@@ -165,7 +165,7 @@ def test_luding_captures_a_pair_when_damping_is_on():
 def test_luding_unloading_path_by_hand():
     """Load to 1 mm, unload to 0.6 mm and 0.1 mm, reload to 0.8 mm: the branches' forces."""
     from pardem.contact.model import law_params
-    from pardem.scene import Contact
+    from pardem.input.scene import Contact
 
     k2, kc = 2 * K1, 0.5 * K1
     law = law_params(Contact(**luding(k2, kc)), 1e-5)

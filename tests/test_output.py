@@ -18,7 +18,7 @@ import pardem
 from averaging.mesh import SEGMENTS
 from pardem.cli import main
 from averaging.io import read_rings
-from pardem.scene_file import write_scene
+from pardem.input.scene_file import write_scene
 from pardem.simulation import Simulation
 
 ROOT = Path(__file__).parent.parent

@@ -8,7 +8,7 @@ from helpers import couette_scene
 
 from averaging.report import block_mean, global_volume_fraction, load_run, metrics, ring_torques
 from pardem.cli import main
-from pardem.scene_file import load_scene, write_scene
+from pardem.input.scene_file import load_scene, write_scene
 
 ROOT = Path(__file__).parent.parent
 

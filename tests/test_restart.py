@@ -7,8 +7,8 @@ import numpy as np
 import pytest
 from helpers import couette_scene
 
-from pardem.scene import SceneError
-from pardem.schema import scene_from_dict
+from pardem.input.scene import SceneError
+from pardem.input.schema import scene_from_dict
 from pardem.simulation import Simulation
 
 FIELDS = ("gid", "x", "v", "theta", "omega", "f", "tau", "hist_wall", "pair_lo", "pair_hi",

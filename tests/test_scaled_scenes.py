@@ -38,13 +38,13 @@ def test_scaled_cells_keep_bs_packing_and_roughness(name, k, n):
 
 
 def test_scaled_cells_start_as_tight_as_the_placement_allows():
-    """The 30k cell's outer ring starts where the placement (pardem.placement) just fits every
+    """The 30k cell's outer ring starts where the placement (pardem.input.placement) just fits every
     disk: it places them there, and refuses 0.5 % closer to the final radius."""
     import dataclasses
 
-    from pardem.placement import initial_configuration
-    from pardem.scene import SceneError
-    from pardem.scene_file import load_scene
+    from pardem.input.placement import initial_configuration
+    from pardem.input.scene import SceneError
+    from pardem.input.scene_file import load_scene
 
     scene = load_scene(RUN_SCRIPTS / "couette_B_30k.toml")
     assert initial_configuration(scene).n_free == 30096

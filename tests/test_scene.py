@@ -14,13 +14,13 @@ import h5py
 import numpy as np
 import pytest
 
-from pardem.scene import FreeParticles, Scene, SceneError
-from pardem.schema import scene_from_dict
-from pardem.scene_file import load_scene, scene_to_toml, write_scene
+from pardem.input.scene import FreeParticles, Scene, SceneError
+from pardem.input.schema import scene_from_dict
+from pardem.input.scene_file import load_scene, scene_to_toml, write_scene
 from pardem.contact.model import restitution
 from pardem.check import describe
-from pardem.scales import contact_time, smallest_contact_time, smallest_reduced_mass
-from pardem.timestep import off_step, resolve_dt, resolve_step, time_quantum
+from pardem.core.scales import contact_time, smallest_contact_time, smallest_reduced_mass
+from pardem.core.timestep import off_step, resolve_dt, resolve_step, time_quantum
 
 ROOT = Path(__file__).resolve().parents[1]
 RUN_SCRIPTS = sorted((ROOT / "run_scripts" / "scenes").glob("*.toml"))
@@ -524,7 +524,7 @@ def test_the_step_is_limited_by_the_stiffest_enabled_contact_mode():
         resolve_dt(scene(**{"time.dt_per_contact": 10}))
     assert resolve_dt(scene(**{"time.dt_per_contact": 11.2})) == pytest.approx(0.1 / 515,
                                                                               rel=1e-12)
-    from pardem.stability import stability_limit
+    from pardem.core.stability import stability_limit
 
     for off in ({"effects.rotation": False}, {}):  # rotation changes nothing here
         assert stability_limit(scene(**off))[0] == pytest.approx(damped_friction, rel=1e-12)
@@ -614,7 +614,7 @@ def test_overlap_check_with_a_few_much_larger_disks_equals_brute_force():
     """Disks over 4x the median diameter are checked against every disk, outside the cell grid
     (which would otherwise take the large diameter as its cell side): the same verdict as
     comparing every pair, for scenes with and without overlaps involving the large disks."""
-    from pardem.particles_input import _worst_pair
+    from pardem.input.particles import _worst_pair
 
     rng = np.random.default_rng(5)
     for trial in range(40):

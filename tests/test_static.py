@@ -1,11 +1,11 @@
-"""Compile-time options (pardem/static.py): every set of options is its own specialisation."""
+"""Compile-time options (pardem/core/static.py): every set of options is its own specialisation."""
 
 import numba as nb
 import pytest
 
 from pardem.contact.model import ContactOptions
-from pardem.static import Static, static
-from pardem.step import StepOptions
+from pardem.core.static import Static, static
+from pardem.core.step import StepOptions
 
 
 @nb.njit

@@ -11,10 +11,10 @@ import pytest
 from helpers import couette_scene
 from mpi_helpers import assert_same_state, dump_state
 
-from pardem.placement import initial_configuration
-from pardem.scene_file import load_scene, write_scene
+from pardem.input.placement import initial_configuration
+from pardem.input.scene_file import load_scene, write_scene
 from pardem.simulation import Simulation
-from pardem.state import FREE, INNER_WALL, OUTER_WALL
+from pardem.core.state import FREE, INNER_WALL, OUTER_WALL
 from pardem.walls import wall_layout
 
 ROOT = Path(__file__).parents[1]

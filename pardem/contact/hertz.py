@@ -21,7 +21,7 @@ import math
 
 import numba as nb
 
-from ..jit import INLINE
+from ..core.jit import INLINE
 from .slot import NormalLaw
 
 REFERENCE_OVERLAP = 0.05  # of the diameter: the deepest overlap the auto step is made for

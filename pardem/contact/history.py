@@ -13,8 +13,8 @@ from __future__ import annotations
 import numba as nb
 import numpy as np
 
-from ..jit import JIT, copy_values
-from ..sorted_runs import run_order
+from ..core.jit import JIT, copy_values
+from ..core.sorted_runs import run_order
 
 SHIFT, LOW = 32, (1 << 32) - 1  # a pair's sort key: (gid_lo << 32) | gid_hi; gids < 2**31
 

@@ -8,8 +8,8 @@ scene's law uses).
 
 from __future__ import annotations
 
-from ..errors import SceneError
-from ..values import fail
+from ..input.errors import SceneError
+from ..input.values import fail
 from .normal import LAWS
 
 

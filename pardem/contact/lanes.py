@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numba as nb
 
-from ..jit import INLINE
+from ..core.jit import INLINE
 from .model import eta_column, history_width, pair_eta, pair_force, rolling_column, spring_column
 from .normal import normal_width
 

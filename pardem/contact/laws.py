@@ -15,7 +15,7 @@ import math
 
 import numba as nb
 
-from ..jit import INLINE
+from ..core.jit import INLINE
 
 
 @nb.njit(**INLINE)

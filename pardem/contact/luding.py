@@ -22,8 +22,8 @@ from __future__ import annotations
 
 import numba as nb
 
-from ..jit import INLINE
-from ..values import fail
+from ..core.jit import INLINE
+from ..input.values import fail
 from .slot import NormalLaw
 
 

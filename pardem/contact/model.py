@@ -36,8 +36,8 @@ from typing import NamedTuple
 
 import numba as nb
 
-from ..jit import INLINE
-from ..static import static
+from ..core.jit import INLINE
+from ..core.static import static
 from .laws import coulomb_limit, normal_viscous, rolling_limit, spring_increment
 from .normal import (LAWS, law_of, normal_energy, normal_force, normal_width,
                      tangential_stiffness)

@@ -28,7 +28,7 @@ from __future__ import annotations
 
 import numba as nb
 
-from ..jit import INLINE
+from ..core.jit import INLINE
 from .hertz import HERTZ, hertz_energy, hertz_force, hertz_tangential
 from .laws import normal_elastic
 from .luding import LUDING, luding_energy, luding_force

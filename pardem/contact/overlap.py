@@ -11,7 +11,7 @@ import math
 
 import numba as nb
 
-from ..jit import INLINE
+from ..core.jit import INLINE
 from .lanes import BATCH, W_AI, W_AJ, W_DX, W_DY
 
 MAX_OVERLAP = 0.25

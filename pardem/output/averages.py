@@ -16,9 +16,9 @@ import json
 
 import numpy as np
 
-from ..scene import SceneError
+from ..input.scene import SceneError
 from ..sampling import ring_width
-from ..scales import normal_stiffness
+from ..core.scales import normal_stiffness
 from .writers import sample_steps
 
 ARRAYS = ("rings_sums", "rings_times", "rings_inner_torque")

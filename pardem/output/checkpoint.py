@@ -25,7 +25,7 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from ..scene import SceneError
+from ..input.scene import SceneError
 from .atomic import size_of, writing
 
 ARRAYS = ("gid", "kind", "x", "v", "theta", "omega", "f", "tau", "radius", "mass", "phi0", "e0",

@@ -20,8 +20,8 @@ import socket
 import time
 from pathlib import Path
 
-from ..scene import SceneError
-from ..scene_file import load_scene
+from ..input.scene import SceneError
+from ..input.scene_file import load_scene
 
 RUN_FILES = ("scene.toml", "log.txt", "checkpoint.h5", "snapshots", "particles.xdmf",
              "contacts.xdmf", "rings.h5", "rings.csv", "rings.vtu",

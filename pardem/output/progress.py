@@ -11,7 +11,7 @@ import sys
 import time
 from pathlib import Path
 
-from ..timestep import off_step_text
+from ..core.timestep import off_step_text
 
 
 def log_line(out_dir: Path | None, text: str) -> None:

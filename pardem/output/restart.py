@@ -17,9 +17,9 @@ from typing import NamedTuple
 import numpy as np
 
 from ..contact.history import carry_history, merge_history
-from ..placement import cell_rows, share_rows
-from ..scene import SceneError, physics_differences
-from ..state import FREE, Particles
+from ..input.placement import cell_rows, share_rows
+from ..input.scene import SceneError, physics_differences
+from ..core.state import FREE, Particles
 from .averages import ARRAYS as AVERAGE_ARRAYS
 from .averages import checkpoint_part
 from .checkpoint import ARRAYS, checkpoint_file, open_checkpoint

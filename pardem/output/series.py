@@ -20,7 +20,7 @@ from pathlib import Path
 
 import h5py
 
-from ..scene import SceneError
+from ..input.scene import SceneError
 from . import xdmf
 from .xdmf import FOLDER, file_name, snapshot_indexes
 

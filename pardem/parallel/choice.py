@@ -15,7 +15,7 @@ import math
 
 import numpy as np
 
-from ..scene import SceneError
+from ..input.scene import SceneError
 from . import cut as ct
 
 HIST_BINS = 4096  # angular and radial bins of the histograms the cuts are placed on

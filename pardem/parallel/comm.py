@@ -31,7 +31,7 @@ import numpy as np
 from mpi4py import MPI
 
 from ..contact.history import NO_HISTORY
-from ..state import row_columns, row_width
+from ..core.state import row_columns, row_width
 from . import cut as ct
 from .choice import choose, cut_for
 from .comm_rows import sorted_rows

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..state import join_rows
+from ..core.state import join_rows
 
 
 def sorted_rows(parts: list[dict[str, np.ndarray]], key: str) -> dict[str, np.ndarray]:

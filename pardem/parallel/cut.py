@@ -23,7 +23,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..jit import JIT
+from ..core.jit import JIT
 
 TWO_PI = 2.0 * math.pi
 

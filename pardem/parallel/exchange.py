@@ -29,10 +29,10 @@ import numba as nb
 import numpy as np
 
 from ..contact.history import SHIFT, live_history, merge_history
-from ..jit import JIT, copy_values
-from ..neighbors import build_lists
-from ..sorted_runs import merge_slots, run_order
-from ..state import move_rows, pack_particles, unpack_particles
+from ..core.jit import JIT, copy_values
+from ..core.neighbors import build_lists
+from ..core.sorted_runs import merge_slots, run_order
+from ..core.state import move_rows, pack_particles, unpack_particles
 from ..walls import place_wall_disks
 from .halo import alltoallv, halo_buffers, peer_offsets
 from .cut import domain_geometry, edge_distance, near, owners

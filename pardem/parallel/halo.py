@@ -34,7 +34,7 @@ import numba as nb
 import numpy as np
 from mpi4py import MPI
 
-from ..jit import JIT
+from ..core.jit import JIT
 from .native import (load_acquire, mpi_allreduce, mpi_alltoall, mpi_alltoallv, mpi_irecv,
                      mpi_isend, mpi_waitall, mpi_wtime, sched_yield, store_release)
 from .plan import Halo, HaloConfig, Handles

@@ -7,7 +7,7 @@ from __future__ import annotations
 from numba import types
 from numba.extending import overload
 
-from ..jit import JIT
+from ..core.jit import JIT
 
 
 def refresh_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step):

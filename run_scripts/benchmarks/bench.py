@@ -62,7 +62,7 @@ def scene_of(path: Path, eta: bool):
     tracks no eta either way."""
     import dataclasses
 
-    from pardem.scene_file import load_scene
+    from pardem.input.scene_file import load_scene
 
     scene = load_scene(path)
     if scene.averaging is None:

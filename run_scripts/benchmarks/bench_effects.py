@@ -55,7 +55,7 @@ def scene_dict(variant: tuple[dict, dict]) -> dict:
 def packed_state():
     """``(t, arrays)``: the time (s) and every body's data, sorted by id
     (``Simulation.particle_arrays``), after compression with every effect on."""
-    from pardem.schema import scene_from_dict
+    from pardem.input.schema import scene_from_dict
     from pardem.simulation import Simulation
 
     sim = Simulation(scene_from_dict(scene_dict(VARIANTS["all on"]), base_dir=SCENES))
@@ -70,7 +70,7 @@ def start(variant: tuple[dict, dict], state):
     """A run of a variant at the packed state's time, every disk (wall disks too) placed as in
     that state; springs start at zero. (It sets the clock and the arrays directly: a benchmark's
     shortcut, not an interface.)"""
-    from pardem.schema import scene_from_dict
+    from pardem.input.schema import scene_from_dict
     from pardem.simulation import Simulation
 
     t, arrays = state

@@ -62,8 +62,8 @@ def relabel(sim, curve: str) -> None:
 
 
 def stage_times(sim) -> dict[str, float]:
-    from pardem.forces import contact_forces, new_work
-    from pardem.integrate import drift, kick
+    from pardem.core.forces import contact_forces, new_work
+    from pardem.core.integrate import drift, kick
 
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
     n = int(sim.clock.n_owned[0])
@@ -108,7 +108,7 @@ def parse_states(doc: str, rounds: int, option: str, default: int, orders: bool 
 
 
 def main() -> None:
-    from pardem.scene_file import load_scene
+    from pardem.input.scene_file import load_scene
     from pardem.simulation import Simulation
 
     args, states = parse_states(__doc__, 7, "--steps", 200, orders=True)

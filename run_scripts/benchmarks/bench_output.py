@@ -24,7 +24,7 @@ from pathlib import Path
 from mpi4py import MPI
 
 from pardem.output.snapshots import write_snapshot
-from pardem.scene_file import load_scene
+from pardem.input.scene_file import load_scene
 from pardem.simulation import Simulation
 
 ROOT = Path(__file__).resolve().parents[2]

@@ -26,7 +26,7 @@ import numpy as np
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[2]))
 
-from pardem.sorted_runs import run_order  # noqa: E402
+from pardem.core.sorted_runs import run_order  # noqa: E402
 
 
 @nb.njit(cache=True)

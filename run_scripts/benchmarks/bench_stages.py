@@ -27,9 +27,9 @@ import numba as nb  # noqa: E402
 import numpy as np  # noqa: E402
 from bench_order import parse_states  # noqa: E402
 
-from pardem.forces import contact_forces, new_work  # noqa: E402
-from pardem.integrate import drift, kick  # noqa: E402
-from pardem.jit import JIT  # noqa: E402
+from pardem.core.forces import contact_forces, new_work  # noqa: E402
+from pardem.core.integrate import drift, kick  # noqa: E402
+from pardem.core.jit import JIT  # noqa: E402
 
 LOOP = dict(JIT, cache=False)
 
@@ -80,7 +80,7 @@ def round_times(sim, reps: int) -> dict[str, float]:
 
 
 def main() -> None:
-    from pardem.scene_file import load_scene
+    from pardem.input.scene_file import load_scene
     from pardem.simulation import Simulation
 
     args, states = parse_states(__doc__, 5, "--reps", 100)

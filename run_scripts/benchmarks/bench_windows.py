@@ -36,8 +36,8 @@ import numba as nb  # noqa: E402
 import numpy as np  # noqa: E402
 from bench_order import parse_states  # noqa: E402
 
-from pardem.forces import every_pair, new_work, select_below, selected_pairs  # noqa: E402
-from pardem.jit import JIT  # noqa: E402
+from pardem.core.forces import every_pair, new_work, select_below, selected_pairs  # noqa: E402
+from pardem.core.jit import JIT  # noqa: E402
 
 WINDOWS = (7_000, 70_000, 200_000, 400_000)
 SWEEP_WINDOW = 70_000
@@ -115,7 +115,7 @@ def report(label: str, seconds: list[float], fraction: str = "") -> None:
 
 
 def main() -> None:
-    from pardem.scene_file import load_scene
+    from pardem.input.scene_file import load_scene
     from pardem.simulation import Simulation
 
     def sweeps(ap):

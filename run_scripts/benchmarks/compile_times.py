@@ -67,7 +67,7 @@ def worker(scene_path: str) -> None:
 
     from mpi4py import MPI
 
-    from pardem.scene_file import load_scene
+    from pardem.input.scene_file import load_scene
 
     try:
         from pardem.warmup import warm_up

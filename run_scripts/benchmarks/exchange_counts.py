@@ -25,7 +25,7 @@ def worker(scene_path: str, steps: int, start: float) -> None:
     import numpy as np
     from mpi4py import MPI
 
-    from pardem.scene_file import load_scene
+    from pardem.input.scene_file import load_scene
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD

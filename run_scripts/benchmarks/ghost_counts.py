@@ -4,7 +4,7 @@ positions, and the step time the cost model of docs/scaling.md gives across node
     python run_scripts/benchmarks/ghost_counts.py [SCENE] [--ranks 16 32 ... 1024] [--latency 2e-6]
                                                   [--bandwidth 1e10] [--compute 27e-9]
 
-The positions are the scene's initial placement (pardem.placement), mapped radially onto the
+The positions are the scene's initial placement (pardem.input.placement), mapped radially onto the
 final annulus at constant area fraction (r^2 - R_i^2 scaled), so the density is the sheared
 cell's mean; the ghost width is pardem's (largest diameter + skin + GHOST_MARGIN_SKINS skins).
 Two cuts, each with P domains of about equal counts, as pardem cuts them
@@ -70,8 +70,8 @@ def _count(x, ang_sorted, order, radii, edges, w):
 
 def main() -> None:
     from pardem.parallel import GHOST_MARGIN_SKINS
-    from pardem.placement import initial_configuration
-    from pardem.scene_file import load_scene
+    from pardem.input.placement import initial_configuration
+    from pardem.input.scene_file import load_scene
 
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("scene", nargs="?", type=Path, default=SCENES / "couette_B_1M.toml")

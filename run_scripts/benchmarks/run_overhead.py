@@ -27,7 +27,7 @@ ROOT = Path(__file__).resolve().parents[2]
 def worker(mode: str, checkpoint: str, scene_path: str, span: float) -> None:
     from mpi4py import MPI
 
-    from pardem.scene_file import load_scene
+    from pardem.input.scene_file import load_scene
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD

@@ -45,7 +45,7 @@ def main() -> None:
     args = ap.parse_args()
     from mpi4py import MPI
 
-    from pardem.scene_file import load_scene
+    from pardem.input.scene_file import load_scene
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD

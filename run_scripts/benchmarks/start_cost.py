@@ -25,8 +25,8 @@ os.environ.setdefault("NUMBA_NUM_THREADS", "1")
 
 
 def one(path: Path, settle: float) -> dict:
-    from pardem.diagnostics import kinetic_energy
-    from pardem.scene_file import load_scene
+    from pardem.core.diagnostics import kinetic_energy
+    from pardem.input.scene_file import load_scene
     from pardem.simulation import Simulation
 
     scene = load_scene(path)

@@ -20,8 +20,8 @@ from averaging.sample import snapshot_sample
 from averaging.timeavg import RingAverager
 from pardem.contact.model import contact_time, restitution
 from pardem.output.snapshots import read_snapshots
-from pardem.schema import scene_from_dict
-from pardem.scene_file import load_scene
+from pardem.input.schema import scene_from_dict
+from pardem.input.scene_file import load_scene
 from pardem.simulation import Simulation
 from pardem.testing import D_S, M_S, elastic_gas_energy_error, measure, two_disks
 
@@ -103,7 +103,7 @@ def step_cost(ckpt: Path, n_per_contact: float | None = None, skin_d: float | No
 def _retune(sim, n_per_contact, skin_d, integrator):
     """Change a running simulation's dt, skin or integrator in place (a study's shortcut that
     keeps the packing; not an interface)."""
-    from pardem.step import make_stepper
+    from pardem.core.step import make_stepper
 
     if n_per_contact is not None:  # keep the simulated time: time = step * dt
         t = sim.time

@@ -11,10 +11,10 @@ from pathlib import Path
 
 def stability_line(ns) -> str:
     """Where the default step sits against the stability limit of the paper's material (from
-    the scene, pardem.stability.stability_limit; ``ns``: table 1's dt = t_c/N)."""
-    from pardem.scene_file import load_scene
-    from pardem.scales import smallest_contact_time
-    from pardem.stability import stability_limit
+    the scene, pardem.core.stability.stability_limit; ``ns``: table 1's dt = t_c/N)."""
+    from pardem.input.scene_file import load_scene
+    from pardem.core.scales import smallest_contact_time
+    from pardem.core.stability import stability_limit
 
     scene = load_scene(Path(__file__).resolve().parents[1] / "scenes" / "couette_B.toml")
     t_c = smallest_contact_time(scene)
@@ -32,7 +32,7 @@ STABILITY = """\
 `pardem check` prints the limit, and a larger step is refused. It is the smallest of t_c/5 (a
 collision resolved in fewer steps leaves an elastic gas's energy drifting although nothing is
 unstable; it binds only without damping and friction) and the largest stable step of each mode
-of the densest packing that the effects enable (`pardem.stability.contact_modes`).
+of the densest packing that the effects enable (`pardem.core.stability.contact_modes`).
 
 **One mode.** x'' = −ω_v² x − ω_e² ξ − c x', ξ' = x': pardem's velocity Verlet moves x with the
 half-step velocity, but evaluates the damping and increments the springs ξ (tangential,

@@ -379,7 +379,7 @@ def header(args, run) -> list[str]:
 
 def small_run(out: Path) -> Path:
     """A small sheared cell with snapshots and in-situ samples (when no paper run exists)."""
-    from pardem.schema import scene_from_dict
+    from pardem.input.schema import scene_from_dict
     from pardem.simulation import Simulation
 
     scene = scene_from_dict({

@@ -4,7 +4,7 @@ for each set of effects (docs/accuracy.md, "Stability limit").
     python run_scripts/studies/stability_table.py [--ratios 0.25,0.5,0.8,1,1.25,1.6] [--sets A,E]
                 [--json docs/accuracy/stability.json]
 
-Prints a markdown table: per set of effects, the admitted limit (pardem.stability.
+Prints a markdown table: per set of effects, the admitted limit (pardem.core.stability.
 stability_limit) and the median kinetic energy of the free disks 0.2-0.3 s after the
 compression (pardem.testing.settled_kinetic_energy) at each multiple of the limit, over that
 at the default t_c/50. A stable step lets a damped packing come to rest, so the ratio stays
@@ -26,8 +26,8 @@ import sys
 from pathlib import Path
 
 from pardem.testing import dense_cell, stability_drift
-from pardem.scales import smallest_contact_time
-from pardem.stability import stability_limit
+from pardem.core.scales import smallest_contact_time
+from pardem.core.stability import stability_limit
 
 ROLLING = {"k_r": 1e4, "mu_r": 1e3}  # stiff enough to set the limit, its cap far away
 SPIN = 1.0  # rad/s: random spins when the compression ends, with rolling (a mode needs a seed)

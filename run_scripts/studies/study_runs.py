@@ -29,8 +29,8 @@ from averaging.offline import average_run  # noqa: E402
 from averaging.order import psi6_profile  # noqa: E402
 from averaging.report import global_volume_fraction, load_run, metrics  # noqa: E402
 from pardem.output.snapshots import read_snapshots  # noqa: E402
-from pardem.scene_file import load_scene, write_scene  # noqa: E402
-from pardem.state import INNER_WALL  # noqa: E402
+from pardem.input.scene_file import load_scene, write_scene  # noqa: E402
+from pardem.core.state import INNER_WALL  # noqa: E402
 from pardem.walls import wall_layout  # noqa: E402
 
 DOCS = ROOT / "docs"

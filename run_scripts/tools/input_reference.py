@@ -1,6 +1,6 @@
 """The manual's input reference (``docs/input.md``) generated from the scene schema: every
 table, key, kind, unit, default and allowed values, from the declarations in
-``pardem/scene.py`` (one source; ``tests/test_manual.py`` checks that the page is current).
+``pardem/input/scene.py`` (one source; ``tests/test_manual.py`` checks that the page is current).
 
     python run_scripts/tools/input_reference.py            # writes docs/input.md
     python run_scripts/tools/input_reference.py --check    # exit 1 if docs/input.md is stale
@@ -16,8 +16,8 @@ from dataclasses import MISSING
 from pathlib import Path
 
 from pardem.contact.normal import LAWS
-from pardem.scene import (AveragingCfg, Contact, Effects, FreeParticles, Geometry, Neighbors,
-                          OutputCfg, SceneInfo, Species, TimeCfg, _PUNITS)
+from pardem.input.scene import (AveragingCfg, Contact, Effects, FreeParticles, Geometry, Neighbors,
+                                OutputCfg, SceneInfo, Species, TimeCfg, _PUNITS)
 
 PAGE = Path(__file__).resolve().parents[2] / "docs" / "input.md"
 TABLES = (("[scene]", SceneInfo, "required"), ("[geometry]", Geometry, "couette scenes"),
@@ -41,7 +41,7 @@ Two kinds of scene: `kind = "couette"` (disks of the `[[species]]` placed at ran
 rings, the inner one turning; the paper's cell) and `kind = "free"` (explicit particles, no
 rings: `[[particles]]` tables or a `particles_file`).
 
-This page is generated from the declarations in `pardem/scene.py` by
+This page is generated from the declarations in `pardem/input/scene.py` by
 `python run_scripts/tools/input_reference.py`.
 """
 

@@ -62,8 +62,8 @@ PREP_END = 1.0  # s: past the compression, the disks touch
 def kill_scene(path: Path, steps: int, checkpoint_every: int) -> float:
     """small_dense with a snapshot every step and a checkpoint every ``checkpoint_every``
     steps, ending ``steps`` steps after PREP_END; written to ``path``. Returns dt."""
-    from pardem.scene_file import load_scene
-    from pardem.timestep import resolve_dt
+    from pardem.input.scene_file import load_scene
+    from pardem.core.timestep import resolve_dt
 
     dt = resolve_dt(load_scene(SCENE))
     end_step = int(round(PREP_END / dt)) + steps

@@ -121,7 +121,7 @@ def set_value(text: str, table: str, key: str, value: float) -> str:
 
 def tightest_start(r_inner_clear: float, n: int, d_max: float, wall: float) -> float:
     """The smallest outer ring radius (m; x 1.001, rounded up to 0.1 mm) at which the
-    triangular lattice of pardem.placement (spacing 1.001 d_max, centres 1.01 d_max/2 clear of
+    triangular lattice of pardem.input.placement (spacing 1.001 d_max, centres 1.01 d_max/2 clear of
     the rings' wall disks) has n sites: sites counted row by row, bisected on the radius."""
     s = 2.0 * (d_max / 2) * 1.001
     h = s * math.sqrt(3) / 2

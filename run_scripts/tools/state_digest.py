@@ -21,7 +21,7 @@ import sys
 
 import numpy as np
 
-from pardem.scene_file import load_scene
+from pardem.input.scene_file import load_scene
 from pardem.simulation import Simulation
 
 

@@ -5,7 +5,7 @@
 Each mutation edits one source file (the guard removed or weakened) in a temporary copy of the
 tree, runs the one test that must catch it there, and restores the file; the working tree is
 never touched, so other tests may run meanwhile. A mutation of compiled code gets a
-fresh numba cache by itself (pardem/jit.py keys the cache by the sources), so the whole check
+fresh numba cache by itself (pardem/core/jit.py keys the cache by the sources), so the whole check
 takes long and runs as a slow-marked test (tests/hard/test_mutations.py), not in the default
 run. It exits non-zero if a mutation survives or the list went stale.
 """
@@ -25,27 +25,27 @@ MUTATIONS = [  # (guard, file, its text, the text without it, the test that must
      "cl_sliding = cl_ft2 > cl_fmax * cl_fmax", "cl_sliding = cl_ft2 >= cl_fmax * cl_fmax",
      HARD + "test_contacts_hard.py::"
      "test_contact_law_with_zero_tangential_velocity_and_zero_spring"),
-    ("bottom friction at rest (speed <= dv)", "pardem/integrate.py",
+    ("bottom friction at rest (speed <= dv)", "pardem/core/integrate.py",
      "            rest = speed <= dv", "            rest = False",
      HARD + "test_contacts_hard.py::"
      "test_disk_at_rest_with_bottom_friction_stays_exactly_at_rest"),
-    ("ring speed refusal", "pardem/timestep.py",
+    ("ring speed refusal", "pardem/core/timestep.py",
      "    g = scene.geometry\n    if g is None:\n        return\n    k_load = ",
      "    g = scene.geometry\n    if g is None or True:\n        return\n    k_load = ",
      HARD + "test_packings_hard.py::test_ring_too_fast_for_the_contact_law_is_refused"),
-    ("watchdog: centre beyond the current ring line", "pardem/integrate.py",
+    ("watchdog: centre beyond the current ring line", "pardem/core/integrate.py",
      "        hi2, lo2 = r_hi * r_hi, prm.rings.r_in * prm.rings.r_in",
      "        hi2, lo2 = 1.0, prm.rings.r_in * prm.rings.r_in",
      HARD + "test_parallel_hard.py::"
      "test_watchdog_names_the_particle_and_keeps_the_last_checkpoint"),
-    ("watchdog: NaN", "pardem/integrate.py",
+    ("watchdog: NaN", "pardem/core/integrate.py",
      "        n_bad += 0 if lo2 <= r2 <= hi2 else 1  # also counts NaN",
      "        n_bad += 1 if r2 < lo2 or r2 > hi2 else 0  # NaN slips through",
      HARD + "test_parallel_hard.py::test_watchdog_on_two_ranks_stops_every_rank"),
     ("checkpoint content checks", "pardem/output/restart.py",
      "            _check_rows(path, key, rows, getattr(ps, key)[:k], idx)\n", "",
      HARD + "test_files_hard.py::test_corrupted_checkpoint_is_refused"),
-    ("placement within the band", "pardem/placement.py",
+    ("placement within the band", "pardem/input/placement.py",
      "room = np.maximum(np.minimum(0.5 * spacing - radius, band), 0.0) * 0.99",
      "room = np.maximum(0.5 * spacing - radius, 0.0) * 0.99",
      HARD + "test_random_scenes.py::test_initial_placement_never_overlaps"),

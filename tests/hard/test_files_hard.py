@@ -12,8 +12,8 @@ import pytest
 from helpers import couette_scene, kill_when
 
 import pardem
-from pardem.scene import SceneError
-from pardem.scene_file import write_scene
+from pardem.input.scene import SceneError
+from pardem.input.scene_file import write_scene
 from pardem.simulation import Simulation
 
 CELL = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,

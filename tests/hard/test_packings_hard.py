@@ -6,9 +6,9 @@ import pytest
 from helpers import couette_scene
 
 from averaging.report import global_volume_fraction
-from pardem.scene import SceneError
+from pardem.input.scene import SceneError
 from pardem.simulation import Simulation
-from pardem.timestep import MAX_IMPACT_OVERLAP, resolve_dt
+from pardem.core.timestep import MAX_IMPACT_OVERLAP, resolve_dt
 
 SMALL_CELL = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
               "compression_time": 0.1}

@@ -9,7 +9,7 @@ from helpers import couette_scene
 from mpi_helpers import MPI_DIR, assert_same_state, dump_state, run_mpi
 
 from averaging.weights import WEIGHTINGS, ring_weights
-from pardem.scene_file import write_scene
+from pardem.input.scene_file import write_scene
 from pardem.simulation import Simulation, SimulationError
 
 CELL = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.09,

@@ -12,7 +12,7 @@ from helpers import couette_scene, free_scene
 from hypothesis import HealthCheck, assume, event, example, given, settings
 from hypothesis import strategies as st
 
-from pardem.scene import SceneError
+from pardem.input.scene import SceneError
 from pardem.simulation import Simulation, SimulationError
 
 ALL_ON = {"normal_damping": True, "tangential_friction": True, "rotation": True,
@@ -115,7 +115,7 @@ def test_initial_placement_never_overlaps(counts, seed, start):
     """Random placement (any density the loader accepts): no two disks overlap, and every disk
     is clear of both rings' wall disks (found by the engine test above: a lone disk was once
     jittered across the outer ring)."""
-    from pardem.placement import initial_configuration
+    from pardem.input.placement import initial_configuration
 
     try:
         scene = couette_scene(counts=counts, geometry={

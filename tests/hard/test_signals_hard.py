@@ -15,7 +15,7 @@ import pytest
 from helpers import couette_scene
 from mpi_helpers import mpiexec
 
-from pardem.scene_file import write_scene
+from pardem.input.scene_file import write_scene
 
 CELL = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
         "compression_time": 0.1, "omega_inner": 3.0}

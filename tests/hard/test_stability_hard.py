@@ -11,12 +11,12 @@ from helpers import couette_scene, free_scene
 from mpi_helpers import MPI_DIR, run_mpi
 
 from pardem import cli
-from pardem.scene import SceneError
-from pardem.scene_file import write_scene
+from pardem.input.scene import SceneError
+from pardem.input.scene_file import write_scene
 from pardem.simulation import Simulation
 from pardem.testing import D_S, M_S, dense_cell, stability_drift
-from pardem.stability import mode_step_limit, stability_limit
-from pardem.timestep import resolve_dt
+from pardem.core.stability import mode_step_limit, stability_limit
+from pardem.core.timestep import resolve_dt
 
 K_N, GAMMA_N = 352.1, 0.19
 M_RED = M_S / 2
@@ -158,7 +158,7 @@ def test_an_overlap_beyond_the_bound_stops_the_run_naming_the_pair(tmp_path, cap
     after the overlap passes 25 % of d, with exit 3 as the watchdog, naming both particles,
     the time and the overlap; before, it let them pass through each other (exit 0)."""
     toml = fast_pair(tmp_path, 20.0)
-    with mock.patch("pardem.timestep.check_free_speeds"):
+    with mock.patch("pardem.core.timestep.check_free_speeds"):
         code = cli.main(["run", str(toml), "--out", str(tmp_path / "out"), "--end", "0.003"])
     err = capsys.readouterr().err
     assert code == 3, err

@@ -13,9 +13,9 @@ from helpers import couette_scene
 from mpi_helpers import mpiexec
 
 from pardem.cli import main
-from pardem.scene import SceneError
-from pardem.schema import scene_from_dict
-from pardem.scene_file import write_scene
+from pardem.input.scene import SceneError
+from pardem.input.schema import scene_from_dict
+from pardem.input.scene_file import write_scene
 
 SMALL = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
          "compression_time": 0.1, "omega_inner": 3.0}

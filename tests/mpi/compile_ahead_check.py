@@ -15,7 +15,7 @@ import tempfile
 from mpi4py import MPI
 
 from pardem import compile_ahead
-from pardem.scene_file import load_scene
+from pardem.input.scene_file import load_scene
 from pardem.warmup import warm_up
 
 comm = MPI.COMM_WORLD

@@ -29,9 +29,9 @@ from mpi4py import MPI
 
 from pardem.parallel import comm as decomposition
 from pardem.parallel.halo import SharedWindow
-from pardem.scene_file import load_scene
+from pardem.input.scene_file import load_scene
 from pardem.simulation import Simulation
-from pardem.state import new_particles, packed, unpack_particles
+from pardem.core.state import new_particles, packed, unpack_particles
 from pardem.testing import brute_force_pairs
 
 CHECKED = [0]

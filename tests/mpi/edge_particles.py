@@ -15,8 +15,8 @@ from mpi4py import MPI
 
 from pardem.parallel import cut
 from pardem.parallel.choice import HIST_BINS
-from pardem.placement import initial_configuration
-from pardem.scene_file import load_scene
+from pardem.input.placement import initial_configuration
+from pardem.input.scene_file import load_scene
 from pardem.simulation import Simulation
 
 scene = load_scene(sys.argv[1])

@@ -17,7 +17,7 @@ import sys
 import numpy as np
 from mpi4py import MPI
 
-from pardem.scene_file import load_scene
+from pardem.input.scene_file import load_scene
 from pardem.simulation import Simulation
 
 

@@ -10,12 +10,12 @@ from pathlib import Path
 
 import numpy as np
 
-from .output.averages import sample_grid
-from .output.checkpoint import save_checkpoint
-from .output.restart import gather_state
-from .output.series import continue_series
-from .output.snapshots import write_snapshot
-from .output.writers import At, RingSamples
+from .averages import sample_grid
+from .checkpoint import save_checkpoint
+from .restart import gather_state
+from .series import continue_series
+from .snapshots import write_snapshot
+from .writers import At, RingSamples
 
 
 class RunOutput:

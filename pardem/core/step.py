@@ -37,12 +37,12 @@ from typing import Callable, NamedTuple
 import numba as nb
 import numpy as np
 
-from .contact.model import ContactOptions
+from ..contact.model import ContactOptions
 from .forces import contact_forces, new_work
 from .integrate import drift, kick, wall_travel
 from .jit import JIT
 from .static import static
-from .parallel.refresh import refresh_ghosts
+from ..parallel.refresh import refresh_ghosts
 
 OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED, TOO_DEEP = 0, 1, 2, 3, 4
 FORCES_ONLY = 2  # Clock.phase: the next advance call only computes the forces

@@ -30,8 +30,8 @@ from numba import literal_unroll
 from .jit import JIT
 
 if TYPE_CHECKING:
-    from .contact.model import LawParams
-    from .walls import Rings
+    from ..contact.model import LawParams
+    from ..walls import Rings
 
 FREE, INNER_WALL, OUTER_WALL = 0, 1, 2
 """Values of ``Particles.kind``."""

@@ -18,8 +18,8 @@ from typing import NamedTuple
 import numpy as np
 
 from .scene import Scene, SceneError
-from .state import FREE, INNER_WALL, OUTER_WALL, ROW_ROOM, Particles, new_particles
-from .walls import wall_disk_angles, wall_layout
+from ..core.state import FREE, INNER_WALL, OUTER_WALL, ROW_ROOM, Particles, new_particles
+from ..walls import wall_disk_angles, wall_layout
 
 
 class Initial(NamedTuple):

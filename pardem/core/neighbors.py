@@ -17,10 +17,10 @@ import math
 import numba as nb
 import numpy as np
 
-from .contact.history import carry_history, live_history
+from ..contact.history import carry_history, live_history
 from .jit import JIT
 from .sorted_runs import run_order
-from .walls import outer_radius, ring_surface
+from ..walls import outer_radius, ring_surface
 
 WALL_SKINS = 2.0
 """A free disk's pairs with wall disks are listed up to this many skins farther than free

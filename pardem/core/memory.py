@@ -33,9 +33,9 @@ import resource
 from contextlib import contextmanager
 from pathlib import Path
 
-from .parallel import size_of, smallest_node_share
-from .scene import Scene, SceneError
-from .walls import wall_layout
+from ..parallel import size_of, smallest_node_share
+from ..input.scene import Scene, SceneError
+from ..walls import wall_layout
 
 BYTES_PER_PARTICLE = 600
 """Peak resident bytes per particle of the whole cell, per rank, at set-up and in the first

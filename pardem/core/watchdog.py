@@ -3,7 +3,7 @@ represent. Stage: front (Simulation._stop raises SimulationError with these on e
 
 from __future__ import annotations
 
-from .contact.overlap import MAX_OVERLAP
+from ..contact.overlap import MAX_OVERLAP
 
 
 def bad_particle_message(sim, k: int) -> str:

@@ -19,14 +19,13 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from .contact.lanes import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX,
-                            W_FTY, W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, lane_contact,
-                            work_size)
-from .contact.model import history_width
-from .contact.overlap import lane_overlap, note_deep, too_deep
+from ..contact.lanes import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX, W_FTY,
+                             W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, lane_contact, work_size)
+from ..contact.model import history_width
+from ..contact.overlap import lane_overlap, note_deep, too_deep
 from .jit import INLINE, JIT
 from .pair_select import select_pairs, zero_pairs
-from .ring_forces import ring_contacts
+from ..ring_forces import ring_contacts
 
 
 # The selection pays while fewer than this fraction of the listed pairs have a force (B in

@@ -12,7 +12,7 @@ import math
 import numpy as np
 
 from .scales import normal_stiffness, smallest_contact_time, smallest_reduced_mass
-from .scene import Scene
+from ..input.scene import Scene
 
 
 STEPS_PER_CONTACT = 5.0

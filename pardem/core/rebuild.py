@@ -10,13 +10,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .contact.history import NO_HISTORY
+from ..contact.history import NO_HISTORY
 from .memory import unmapped
 from .integrate import wall_travel
 from .neighbors import build_lists, next_wall_skin
-from .state import (ROW_ROOM, new_pairs, new_particles, packed, row_width,
-                    unpack_particles)
-from .walls import place_wall_disks
+from .state import ROW_ROOM, new_pairs, new_particles, packed, row_width, unpack_particles
+from ..walls import place_wall_disks
 
 
 def rebuild(sim, history=None, rebalance: bool = True, exchange: bool = True) -> None:
@@ -84,7 +83,7 @@ def order_walls(sim, idle: int) -> None:
     those (clock.n_moving): within the ghost width plus a wall diameter of the sector, no
     owned particle can touch another wall disk before the next exchange. ``idle``: how
     many wall disks, stored last, the step loop did not move (placed here first)."""
-    from .parallel.exchange import ExchangePlan, arrange_walls
+    from ..parallel.exchange import ExchangePlan, arrange_walls
 
     clock = sim.clock
     n_owned, n_local = int(clock.n_owned[0]), int(clock.n_local[0])

@@ -18,10 +18,9 @@ from fractions import Fraction
 
 import numpy as np
 
-from .contact.overlap import MAX_OVERLAP
-from .scales import (free_disks, normal_stiffness, smallest_contact_time,
-                     smallest_reduced_mass)
-from .scene import Scene, SceneError
+from ..contact.overlap import MAX_OVERLAP
+from .scales import free_disks, normal_stiffness, smallest_contact_time, smallest_reduced_mass
+from ..input.scene import Scene, SceneError
 from .stability import stability_limit
 
 

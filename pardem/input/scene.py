@@ -18,8 +18,8 @@ from typing import Any
 
 import numpy as np
 
-from .contact.keys import foreign_keys
-from .contact.normal import LAWS
+from ..contact.keys import foreign_keys
+from ..contact.normal import LAWS
 from .errors import SceneError  # noqa: F401  (importers of the scene types read it here)
 
 

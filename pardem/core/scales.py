@@ -8,9 +8,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .contact import model
-from .contact.normal import law_of
-from .scene import Scene, SceneError
+from ..contact import model
+from ..contact.normal import law_of
+from ..input.scene import Scene, SceneError
 
 
 def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
