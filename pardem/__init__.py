@@ -1,11 +1,12 @@
 """pardem: an MPI-parallel 2D discrete-element simulator of a granular Couette shear cell.
 
-Data flow: scene.py (TOML -> frozen dataclasses; checks in schema.py) -> placement.py (initial
-arrays) -> simulation.py (state, run loop, writers; read it top to bottom) -> step.py (the
-compiled time-step loop: integrate.py, forces.py with the contact law of contact/, walls.py for
-the rings, neighbors.py and rebuild.py for the Verlet lists) -> output/ (snapshots, checkpoints,
-restarts, the in-situ averages, progress). Under MPI: parallel/ (sectors, migration, ghosts,
-gathers; the only place that imports mpi4py). averaging/ turns contacts into ring fields.
+Data flow: input/ (scene.py: TOML -> frozen dataclasses, checked in schema.py;
+placement.py: the initial arrays) -> simulation.py (state, run loop, writers; read it top to
+bottom) -> core/step.py (the compiled time-step loop: integrate.py, forces.py with the contact
+law of contact/, walls.py for the rings, neighbors.py and rebuild.py for the Verlet lists) ->
+output/ (snapshots, checkpoints, restarts, the in-situ averages, progress). Under MPI:
+parallel/ (sectors, migration, ghosts, gathers; the only place that imports mpi4py).
+averaging/ turns contacts into ring fields; it sees pardem through sampling.py.
 
 Glossary (SI units throughout):
   gid       global particle id (free particles 0..N-1, then wall disks)
