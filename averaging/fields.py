@@ -197,3 +197,16 @@ def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarr
     = k'_n = k_n/h (N/m^2) and wall_speed = Omega R_i (m/s) set the paper's normalisations."""
     view = RingView(s, COL, r, dr, h, r_tilde, k_n_2d, wall_speed, REGISTRY)
     return {f.name: view.field(f.name) for f in FIELDS if not f.name.startswith("_")}
+
+
+def group_fields(sums: np.ndarray, torques: np.ndarray, groups: list[np.ndarray],
+                 args: tuple) -> list[dict[str, np.ndarray]]:
+    """The fields (and the mean inner-ring torque) of each group of samples: the sums
+    [samples, rings, columns] averaged over the group's samples first, as for the time
+    average (fields are ratios formed after averaging)."""
+    out = []
+    for g in groups:
+        f = derived(sums[g].mean(axis=0), *args)
+        f["inner_torque"] = np.array(torques[g].mean())
+        out.append(f)
+    return out

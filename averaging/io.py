@@ -1,7 +1,12 @@
 """Ring averages on disk: ``rings.h5`` (fields with units and standard errors, the raw sums of
-every sample, sample times, the inner-ring torque per sample), ``rings.csv`` (the per-ring
-fields, units in the column names) and ``rings.vtu`` (the annulus mesh for ParaView, mesh.py);
-``read_rings`` reads them back.
+every sample, sample times, the inner-ring torque per sample, the normalisations),
+``rings.csv`` (the per-ring fields), ``rings_blocks.csv`` (the fields of the consecutive
+blocks of samples the errors come from, with their times) and ``rings.vtu`` (the annulus mesh
+for ParaView, mesh.py); ``read_rings`` reads them back, ``tables.py`` as xarray and pandas.
+
+The CSV files open in any reader as they are: plain column names, one row per ring (per block
+and ring), and the units in a comment line above the header (``pandas.read_csv(path,
+comment="#")`` skips it; ``csv_units`` reads it).
 
 Stage: averaging output (rank 0). Every file is written under a temporary name and renamed.
 """
@@ -16,7 +21,7 @@ import numpy as np
 
 from pardem.sampling import size_of, writing
 
-from .fields import COLUMNS, FIELD_UNITS, UNITS
+from .fields import COLUMNS, FIELD_UNITS, UNITS, group_fields
 from .mesh import write_rings_vtu
 
 
@@ -28,20 +33,60 @@ def write_rings(out_dir: Path, avg) -> None:
     with writing(out_dir / "rings.h5", size_of(f, {"sums": sums})) as tmp:
         _write_h5(tmp, avg, f, sums)
     keys = [k for k in f if np.ndim(f[k]) == 1]  # per-ring columns (fit scalars: h5 only)
-    header = ",".join(f"{k} [{FIELD_UNITS.get(k.removesuffix('_err'), '')}]" for k in keys)
-    tmp = out_dir / "rings.csv.tmp"
-    np.savetxt(tmp, np.column_stack([f[k] for k in keys]), delimiter=",", header=header,
-               comments="")
-    os.replace(tmp, out_dir / "rings.csv")
+    write_csv(out_dir / "rings.csv", keys, np.column_stack([f[k] for k in keys]))
+    write_csv(out_dir / "rings_blocks.csv", *block_table(avg))
     write_rings_vtu(out_dir / "rings.vtu", f, avg.r_in + np.arange(avg.n_rings + 1) * avg.dr)
 
 
+def block_table(avg) -> tuple[list[str], np.ndarray]:
+    """(columns, rows) of rings_blocks.csv: per block of samples (RingAverager.blocks) and
+    ring, the block's mean sample time, its first and last sample time, the ring index, and
+    every per-ring field of the block's averaged sums."""
+    blocks = avg.blocks()
+    args = avg.field_arguments()
+    per = group_fields(np.array(avg.samples), np.array(avg.torques), blocks, args)
+    keys = ["r", "r_tilde"] + [k for k in per[0] if np.ndim(per[0][k]) == 1]
+    times, n = np.array(avg.times), avg.n_rings
+    rows = []
+    for b, f in zip(blocks, per):
+        f = {"r": args[0], "r_tilde": args[3], **f}
+        head = np.tile([times[b].mean(), times[b][0], times[b][-1]], (n, 1))
+        rows.append(np.column_stack([head, np.arange(n), *(f[k] for k in keys)]))
+    return ["time", "time_start", "time_end", "ring"] + keys, np.vstack(rows)
+
+
+def write_csv(path: Path, columns: list[str], rows: np.ndarray) -> None:
+    """A CSV file with plain column names and a comment line of their units above them,
+    written under a temporary name and renamed."""
+    units = ",".join(column_unit(c) for c in columns)
+    tmp = path.with_name(path.name + ".tmp")
+    np.savetxt(tmp, rows, delimiter=",", header=f"# units: {units}\n" + ",".join(columns),
+               comments="")
+    os.replace(tmp, path)
+
+
+def column_unit(column: str) -> str:
+    """The unit of a column of the ring tables ("1": dimensionless)."""
+    if column in ("time", "time_start", "time_end"):
+        return "s"
+    return "1" if column == "ring" else FIELD_UNITS.get(column.removesuffix("_err"), "")
+
+
+def csv_units(path: str | Path) -> dict[str, str]:
+    """Column name -> unit of a ring table CSV (its ``# units:`` comment line)."""
+    with open(path) as f:
+        units = f.readline().removeprefix("# units: ").strip().split(",")
+        return dict(zip(f.readline().strip().split(","), units))
+
+
 def _write_h5(tmp: Path, avg, f: dict, sums: np.ndarray) -> None:
+    args = avg.field_arguments()
     with h5py.File(tmp, "w") as h5:
         h5.attrs.update({"format": "pardem-rings", "ring_width": avg.dr,
                          "inner_radius": avg.r_in, "weighting": avg.weighting,
                          "height": avg.height, "n_samples": len(avg.samples),
-                         "reference_diameter": avg.d_ref})
+                         "reference_diameter": avg.d_ref, "k_n_2d": args[4],
+                         "wall_speed": args[5]})
         for key, value in f.items():
             h5.create_dataset(f"fields/{key}", data=value)
             h5[f"fields/{key}"].attrs["unit"] = FIELD_UNITS.get(key.removesuffix("_err"), "")

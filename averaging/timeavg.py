@@ -14,7 +14,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .fields import N_COLUMNS, derived
+from .fields import N_COLUMNS, group_fields
+from .io import write_rings
 from .sample import Sample, sample_simulation
 from .sums import accumulate, reduce_sums
 from .weights import WEIGHTINGS
@@ -66,6 +67,17 @@ class RingAverager:
     def ring_centres(self) -> np.ndarray:
         return self.r_in + (np.arange(self.n_rings) + 0.5) * self.dr
 
+    def field_arguments(self) -> tuple:
+        """``fields.derived``'s arguments after the sums: ring centres r (m), dr (m), h (m),
+        r_tilde, k'_n = k_n/h (N/m^2) and the wall speed Omega R_i (m/s)."""
+        r = self.ring_centres
+        return (r, self.dr, self.height, (r - self.r_in) / self.d_ref, self.k_n / self.height,
+                self.omega_in * self.r_in)
+
+    def blocks(self) -> list[np.ndarray]:
+        """The consecutive blocks of samples (indices) the standard errors come from."""
+        return np.array_split(np.arange(len(self.samples)), min(ERROR_BLOCKS, len(self.samples)))
+
     def fields(self) -> dict[str, np.ndarray]:
         """Time-averaged fields and their standard errors (key + "_err"). Errors come from
         block averages: the samples are cut into up to 8 consecutive blocks, each block's
@@ -74,19 +86,11 @@ class RingAverager:
         the error; blocks longer than the correlation time do not."""
         if not self.samples:
             raise ValueError("no samples taken")
-        stack = np.array(self.samples)
-        r = self.ring_centres
-        r_tilde = (r - self.r_in) / self.d_ref
-        args = (r, self.dr, self.height, r_tilde, self.k_n / self.height,
-                self.omega_in * self.r_in)
-        torques = np.array(self.torques)
-        mean = derived(stack.mean(axis=0), *args)
-        mean["inner_torque"] = np.array(torques.mean())
-        out = {"r": r, "r_tilde": r_tilde}
-        blocks = np.array_split(np.arange(len(stack)), min(ERROR_BLOCKS, len(stack)))
-        per = [derived(stack[b].mean(axis=0), *args) for b in blocks]
-        for p, b in zip(per, blocks):
-            p["inner_torque"] = np.array(torques[b].mean())
+        stack, torques = np.array(self.samples), np.array(self.torques)
+        args = self.field_arguments()
+        mean = group_fields(stack, torques, [np.arange(len(stack))], args)[0]
+        out = {"r": args[0], "r_tilde": args[3]}
+        per = group_fields(stack, torques, self.blocks(), args)
         for key, value in mean.items():
             out[key] = value
             if len(per) > 1:
@@ -95,8 +99,6 @@ class RingAverager:
 
     def write(self, out_dir: str | Path) -> None:
         """rings.h5 (fields, errors, raw sums per sample), rings.csv and rings.vtu; atomic."""
-        from .io import write_rings
-
         write_rings(Path(out_dir), self)
 
 
