@@ -28,7 +28,7 @@ from .contact.history import live_history, tracks_eta
 from .contact.model import history_columns, law_params, options_for
 from .core.memory import prepare_memory, reuse_freed_arrays
 from .core.neighbors import WALL_SKINS
-from .core.rebuild import rebuild
+from .core.rebuild import Rebuilder
 from .core.state import Params, new_clock, new_pairs
 from .core.step import StepOptions, make_stepper
 from .core.timestep import resolve_step
@@ -70,10 +70,11 @@ class SimulationBuilder:
         c = scene.contact
         inner, outer = (g is not None and wall_layout(g, ring).count > 0
                         for ring in ("inner", "outer"))
-        walled = float(inner or outer)
+        walled = inner or outer
         self.prm = Params(law_params(c, self.dt), rings_of(g), self.dt, skin,
-                          c.mu_bottom * c.gravity, math.inf, wall_skin=WALL_SKINS * skin * walled,
-                          inner_disks=float(inner), wall_disks=walled)
+                          c.mu_bottom * c.gravity, math.inf,
+                          wall_skin=WALL_SKINS * skin if walled else 0.0,
+                          inner_disks=inner, wall_disks=walled)
         prepare_memory(scene, comm)
         init = initial_configuration(scene)
         self.n_free = init.n_free
@@ -107,11 +108,12 @@ class SimulationBuilder:
         del init  # the whole cell's arrays: not kept
         self.clock.n_owned[0], self.clock.n_local[0] = n_owned, n
         self.clock.n_moving[0] = n  # every wall disk is at time t: none idle yet
-        # no owned particle comes this close to an idle wall disk between exchanges (order_walls)
+        # no owned particle comes this close to an idle wall disk between exchanges
         self.wall_margin = self.decomp.ghost_width + self.prm.wall_skin + 2.0 * wall_radius
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.hist)
         compile_ahead(self, history)  # parallel runs: the ranks share a cold compile
-        self._rebuild(history=history, rebalance=False)
+        self.rebuilder = Rebuilder(self)
+        self.rebuilder.rebuild(history=history, rebalance=False)
         if restart is None:
             self._compute_forces()
         else:
@@ -170,7 +172,7 @@ class SimulationBuilder:
 
     def refresh(self) -> None:
         """Rebuild the neighbour lists and recompute the forces after the state was edited."""
-        self._rebuild()
+        self.rebuilder.rebuild()
         self._compute_forces()
 
     def _compute_forces(self) -> None:
@@ -180,9 +182,6 @@ class SimulationBuilder:
                                     self.decomp.max(v2))
 
     # -- neighbour lists ----------------------------------------------------------------------
-    def _rebuild(self, history=None, rebalance: bool = True, exchange: bool = True) -> None:
-        rebuild(self, history, rebalance, exchange)
-
     def history_table(self):
         """This rank's non-zero contact history: (gid_lo, gid_hi, rows), sorted by key."""
         return live_history(self.ps.gid, self.pairs.i, self.pairs.j, self.pairs.hist,

@@ -28,9 +28,9 @@ from numba.core import types
 
 from .contact.history import NO_HISTORY
 from .core.forces import ForceWork, contact_forces
+from .core.neighbors import build_lists
 from .parallel import barrier
 from .ring_forces import ring_contacts
-from .core.rebuild import exchange_counts
 
 
 def compile_first(decomp) -> None:
@@ -72,12 +72,10 @@ def _first_groups(decomp) -> list[list]:
 
 def _groups(sim, history) -> list[list]:
     """Per rank, the kernels to compile and their signatures."""
-    from .core.neighbors import build_lists
     from .parallel.exchange import _refresh_plan  # loads libmpi: parallel only
 
     ps, pairs, prm, opts = sim.ps, sim.pairs, sim.prm, sim.options
-    exchange = sim.decomp.exchange_arguments(ps, pairs, sim.clock, exchange_counts(sim.clock),
-                                             sim.hist, opts.walls, history, sim.clock_time, prm,
+    exchange = sim.decomp.exchange_arguments(ps, pairs, sim.clock, sim.hist, history,
                                              sim.wall_margin)
     f8, record = types.float64, types.boolean
     rotation, walls = types.literal(opts.rotation), types.literal(opts.walls)
@@ -107,13 +105,13 @@ def _migration(exchange: tuple) -> list:
     arguments); receive_rows takes what send_rows returns."""
     from .parallel.exchange import peer_offsets, receive_rows, send_rows
 
-    ps, pairs, _, counts, plan, from_list, history, t, prm, handles = exchange
+    ps, pairs, _, counts, plan, from_list, history, handles = exchange
     index = nb.typeof(np.zeros(1, np.int64))
 
     def receive():
         rbuf, recv_off, owner, sent_history, _ = send_rows.nopython_signatures[-1].return_type
-        return (ps, counts, owner, types.Tuple((rbuf, recv_off)), plan, sent_history, t, prm,
-                handles, types.boolean)
+        return (ps, counts, owner, types.Tuple((rbuf, recv_off)), plan, sent_history, handles,
+                types.boolean)
     return [(send_rows, (ps, pairs, types.int64, plan, from_list, history, handles)),
             (receive_rows, receive), (peer_offsets, (index, index, index, handles))]
 

@@ -2,7 +2,8 @@
 
 Stage: driver. The physics of a step is compiled (``core/step.py``: kick, drift, ghost refresh,
 forces, kick); this module decides how many steps each compiled call runs,
-rebuilds the neighbour lists when the step loop asks for it, and fires the writers
+has its ``Rebuilder`` (``core/rebuild.py``) rebuild the neighbour lists when the step loop
+asks for it, and fires the writers
 (``output/writers.py``) between calls. ``Simulation.run``:
 
     forces at t = 0 (or the checkpoint's state, forces and history)
@@ -25,7 +26,6 @@ import time
 
 from . import stop
 from .builder import SimulationBuilder
-from .core.rebuild import place_idle_walls, rebuild_on_request
 from .core.step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP
 from .core.timestep import check_step_count
 from .core.watchdog import bad_particle_message, too_deep_message
@@ -154,7 +154,7 @@ class Simulation(SimulationBuilder, StateViews, RunOutput):
             t1 = time.perf_counter()
             self.timers["forces+integration"] += t1 - t0
             if status == NEED_REBUILD:  # every rank returns at the same step (global maxima)
-                rebuild_on_request(self)
+                self.rebuilder.rebuild(forced=False)
                 self.timers["neighbour rebuild"] += time.perf_counter() - t1
             elif status in (BAD_PARTICLE, TOO_DEEP):
                 self._stop(bad_particle_message(self, bad) if bad >= 0 else None)
@@ -167,7 +167,7 @@ class Simulation(SimulationBuilder, StateViews, RunOutput):
                 # reach (one collective per call)
                 if self.decomp.max(float(self.clock.deep[0] >= 0.0)) > 0.0:
                     self._stop(None)
-                place_idle_walls(self)
+                self.rebuilder.place_idle_walls()
                 return
 
     def _stop(self, message: str | None) -> None:

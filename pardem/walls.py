@@ -16,23 +16,24 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
+from .boundary import NO_DISKS, Boundary, Glued
 from .core.jit import INLINE, JIT
-from .core.state import INNER_WALL
+from .core.state import INNER_WALL, OUTER_WALL
 
 
 class Rings(NamedTuple):
     """The two rings of a Couette scene (SI): r_in (m) and omega_in (rad/s, counter-clockwise
     positive) of the inner ring; r_out (m, final), r_out0 (m, at t = 0) and t_comp (s, the
-    compression time) of the outer ring; flat_in, flat_out: 1.0 where the flat ring surface is
-    a contact surface, 0.0 where only its wall disks are (``WallLayout.flat``)."""
+    compression time) of the outer ring; flat_in, flat_out: whether the flat ring surface is a
+    contact surface (else only its wall disks are: ``WallLayout.flat``)."""
 
     r_in: float = 0.0
     omega_in: float = 0.0
     r_out: float = 0.0
     r_out0: float = 0.0
     t_comp: float = 0.0
-    flat_in: float = 1.0
-    flat_out: float = 1.0
+    flat_in: bool = True
+    flat_out: bool = True
 
 
 def rings_of(g) -> Rings:
@@ -40,8 +41,7 @@ def rings_of(g) -> Rings:
     if g is None:
         return Rings()
     return Rings(g.inner_radius, g.omega_inner, g.outer_radius, g.outer_start_radius,
-                 g.compression_time, float(wall_layout(g, "inner").flat),
-                 float(wall_layout(g, "outer").flat))
+                 g.compression_time, wall_layout(g, "inner").flat, wall_layout(g, "outer").flat)
 
 
 @nb.njit(**JIT)
@@ -70,12 +70,15 @@ def place_wall_disks(ps, first, last, t, rings, settled):
     and their predicted velocity and spin, which the forces read: prescribed, they are exact.
     Under MPI a rank places the disks far from its domain only at exchanges; one that comes
     near after a re-cut is touched at once, so its prediction must be current too.
-    ``settled`` (outer_ring_settled): skip the outer ring's disks, which would not change."""
+    ``settled`` (outer_ring_settled): skip the outer ring's disks, which would not change.
+    The disks of any other boundary do not move: they keep the place and the zero velocity
+    they were given at set-up (boundaries.py)."""
     r_o, r_o_dot = outer_radius(t, rings)
     c, s = math.cos(rings.omega_in * t), math.sin(rings.omega_in * t)
     for k in range(first, last):
         ex, ey = ps.e0[k, 0], ps.e0[k, 1]
-        if ps.kind[k] == INNER_WALL:  # rotate e0 by omega_in t
+        kind = ps.kind[k]
+        if kind == INNER_WALL:  # rotate e0 by omega_in t
             ux = ex * c - ey * s
             uy = ey * c + ex * s
             ps.x[k, 0] = rings.r_in * ux
@@ -85,7 +88,7 @@ def place_wall_disks(ps, first, last, t, rings, settled):
             ps.omega[k] = rings.omega_in  # glued: turns with the ring
             ps.theta[k] = rings.omega_in * t
             ps.w_pred[k] = rings.omega_in
-        elif not settled:
+        elif kind == OUTER_WALL and not settled:
             ps.x[k, 0] = r_o * ex
             ps.x[k, 1] = r_o * ey
             ps.v[k, 0] = r_o_dot * ex
@@ -108,10 +111,10 @@ def ring_surface(rx, ry, a, lim, r_o, r_o_dot, rings):
     (rad/s). r_o, r_o_dot: outer radius and rate now (outer_radius).
     A ring without its flat surface is never touched; a disk cannot touch both."""
     rs_r = math.sqrt(rx * rx + ry * ry)
-    if rings.flat_in != 0.0 and rs_r - rings.r_in < a + lim:  # n = +e_r; turns at omega_in
+    if rings.flat_in and rs_r - rings.r_in < a + lim:  # n = +e_r; turns at omega_in
         return (1, rx / rs_r, ry / rs_r, a - (rs_r - rings.r_in), 0.0, 0.0,
                 rings.omega_in * rings.r_in, rings.omega_in)
-    if rings.flat_out != 0.0 and r_o - rs_r < a + lim:  # n = -e_r; moves radially at r_o_dot
+    if rings.flat_out and r_o - rs_r < a + lim:  # n = -e_r; moves radially at r_o_dot
         rs_nx, rs_ny = -rx / rs_r, -ry / rs_r
         return 2, rs_nx, rs_ny, a - (r_o - rs_r), -r_o_dot * rs_nx, -r_o_dot * rs_ny, 0.0, 0.0
     return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
@@ -194,3 +197,29 @@ def check_layout(g, ring: str, smallest_free: float):
 def wall_disk_angles(count: int) -> np.ndarray:
     """Angles (rad) of ``count`` disks evenly spaced along a ring, the first at angle 0."""
     return 2.0 * math.pi * np.arange(count) / count if count else np.zeros(0)
+
+
+def ring_disks(scene) -> Glued:
+    """The disks glued to the two rings at t = 0: the inner ring's on its radius, the outer
+    ring's on its starting radius (each ring's ``wall_layout``)."""
+    g = scene.geometry
+    if g is None:
+        return NO_DISKS
+    inner, outer = wall_layout(g, "inner"), wall_layout(g, "outer")
+    phi_in = wall_disk_angles(inner.count)
+    phi_out = wall_disk_angles(outer.count)
+    r0 = np.concatenate([np.full(phi_in.size, g.inner_radius),
+                         np.full(phi_out.size, g.outer_start_radius)])
+    phi = np.concatenate([phi_in, phi_out])
+    return Glued(np.column_stack([r0 * np.cos(phi), r0 * np.sin(phi)]),
+                 np.concatenate([np.full(phi_in.size, inner.diameter / 2),
+                                 np.full(phi_out.size, outer.diameter / 2)]),
+                 np.concatenate([np.full(phi_in.size, INNER_WALL),
+                                 np.full(phi_out.size, OUTER_WALL)]).astype(np.int8), phi)
+
+
+RINGS = Boundary(
+    "rings", ("[geometry]",), (INNER_WALL, OUTER_WALL),
+    ring_disks, moves=True, surface=True,
+    summary="the Couette cell's two rings: flat surfaces and glued disks, the inner ring "
+            "turning, the outer one compressing")

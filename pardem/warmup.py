@@ -11,7 +11,6 @@ from __future__ import annotations
 import dataclasses
 from pathlib import Path
 
-from .core.rebuild import rebuild_on_request
 from .input.scene import Scene
 from .simulation import Simulation
 
@@ -32,5 +31,5 @@ def warm_up(scene: Scene, out_dir: str | Path, comm=None) -> Simulation:
     sim.run(end=4 * dt, progress=False)
     # four steps rarely need a neighbour build: one as the step loop asks for it (under MPI,
     # the test whether particles moved far enough to migrate compiles only here)
-    rebuild_on_request(sim)
+    sim.rebuilder.rebuild(forced=False)
     return sim

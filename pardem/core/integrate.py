@@ -127,7 +127,8 @@ def wall_travel(clock, prm):
     the inner ring's turn plus the outer ring's radial move. A function of the steps and the
     rings alone, so every rank computes the same bits."""
     half_turn = 0.5 * prm.rings.omega_in * (clock.step[0] - clock.step_ref[0]) * prm.dt
-    chord = 2.0 * prm.inner_disks * prm.rings.r_in * (
-        abs(math.sin(half_turn)) if abs(half_turn) < 0.5 * math.pi else 1.0)
+    chord = 2.0 * prm.rings.r_in * (
+        abs(math.sin(half_turn)) if abs(half_turn) < 0.5 * math.pi else 1.0) \
+        if prm.inner_disks else 0.0
     r_o = outer_radius(clock.step[0] * prm.dt, prm.rings)[0]
     return chord + abs(r_o - clock.r_out_ref[0])

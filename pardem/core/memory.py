@@ -33,9 +33,9 @@ import resource
 from contextlib import contextmanager
 from pathlib import Path
 
+from ..boundaries import wall_disk_count
 from ..parallel import size_of, smallest_node_share
 from ..input.scene import Scene, SceneError
-from ..walls import wall_layout
 
 BYTES_PER_PARTICLE = 600
 """Peak resident bytes per particle of the whole cell, per rank, at set-up and in the first
@@ -50,11 +50,7 @@ BASE_BYTES = 200e6
 
 def particle_count(scene: Scene) -> int:
     """Free particles plus wall disks."""
-    n = scene.n_free
-    g = scene.geometry
-    if g is not None:
-        n += wall_layout(g, "inner").count + wall_layout(g, "outer").count
-    return n
+    return scene.n_free + wall_disk_count(scene)
 
 
 def needed_bytes(scene: Scene) -> float:

@@ -33,14 +33,15 @@ if TYPE_CHECKING:
     from ..contact.model import LawParams
     from ..walls import Rings
 
-FREE, INNER_WALL, OUTER_WALL = 0, 1, 2
-"""Values of ``Particles.kind``."""
+FREE, INNER_WALL, OUTER_WALL, FIXED_WALL = 0, 1, 2, 3
+"""Values of ``Particles.kind``: a free disk, or a wall disk and the boundary it is glued to
+(the inner ring, the outer ring, none: a disk that never moves; boundaries.py)."""
 
 
 class Particles(NamedTuple):
     """Per-particle arrays, length n (capacity). Shapes in brackets, units in parentheses.
 
-    gid [n] int64: global id. kind [n] int8: FREE / INNER_WALL / OUTER_WALL.
+    gid [n] int64: global id. kind [n] int8: FREE / INNER_WALL / OUTER_WALL / FIXED_WALL.
     x [n,2] (m), v [n,2] (m/s), theta [n] (rad), omega [n] (rad/s, counter-clockwise positive).
     f [n,2] (N) and tau [n] (N m): the force and torque of the current positions.
     radius [n] (m), mass [n] (kg), inv_mass [n] (1/kg), inv_inertia [n] (1/(kg m^2)):
@@ -104,8 +105,9 @@ class Params(NamedTuple):
     farther than this from the axis is an error; free scenes: inf; Couette scenes check
     against the rings' current radii instead), wall_skin (m: the extra skin of a free disk's
     pairs with wall disks, whose prescribed motion then does not force a build every skin/2;
-    set at each build, ``neighbors.next_wall_skin``), inner_disks (1.0 if the inner ring
-    carries wall disks, else 0.0), wall_disks (1.0 if either ring does)."""
+    set at each build, ``neighbors.next_wall_skin``), inner_disks (the inner ring carries
+    wall disks), wall_disks (either ring does: wall disks that move, whose travel the lists
+    must cover)."""
 
     law: LawParams
     rings: Rings
@@ -114,8 +116,8 @@ class Params(NamedTuple):
     mu_b_g: float
     escape_radius: float
     wall_skin: float = 0.0
-    inner_disks: float = 0.0
-    wall_disks: float = 0.0
+    inner_disks: bool = False
+    wall_disks: bool = False
 
 
 class Clock(NamedTuple):

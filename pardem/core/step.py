@@ -109,7 +109,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 # 2 max_disp + reach <= skin; a free disk and a wall disk (listed wall_skin
                 # farther) max_disp + wall travel + reach <= skin + wall_skin
                 if disp + 0.5 * clock.reach[0] > 0.5 * prm.skin or (
-                        prm.wall_disks > 0.0 and disp + wall_travel(clock, prm)
+                        prm.wall_disks and disp + wall_travel(clock, prm)
                         + clock.reach[0] > prm.skin + prm.wall_skin):
                     clock.disp[0] = disp
                     return NEED_REBUILD, -1

@@ -41,40 +41,53 @@ def particles_from_tables(rows: list[Any]) -> dict[str, np.ndarray]:
     return cols
 
 
-def particles_from_file(name: Any, base_dir: Path) -> dict[str, np.ndarray]:
+def data_file(name: Any, base_dir: Path, key: str, kinds: str) -> Path:
+    """The file a scene key names (relative to the scene file's folder), or the SceneError that
+    names ``key`` and why it cannot be read; ``kinds``: what it may be (".csv or .h5")."""
     if not isinstance(name, str):
-        raise SceneError(f"particles_file = {show(name)}: expected a file name (.csv or .h5)")
+        raise SceneError(f"{key} = {show(name)}: expected a file name ({kinds})")
     path = base_dir / name
-    label = f"particles_file = {name!r}"
+    label = f"{key} = {name!r}"
     if not path.exists():
         raise SceneError(f"{label}: no such file {str(path)!r}")
     if path.is_dir():
-        raise SceneError(f"{label}: {str(path)!r} is a folder; expected a .csv or .h5 file")
+        raise SceneError(f"{label}: {str(path)!r} is a folder; expected a {kinds} file")
     if not path.is_file():
         raise SceneError(f"{label}: {str(path)!r} is not a regular file (a device or a pipe); "
-                         "expected a .csv or .h5 file")
+                         f"expected a {kinds} file")
+    return path
+
+
+def csv_columns(path: Path, label: str, rows: str) -> dict[str, np.ndarray]:
+    """The columns of a CSV file by header name; a byte-order mark (spreadsheet exports) and
+    '#' comment lines are allowed. ``rows``: what a row is (errors name it)."""
+    try:
+        text = path.read_text(encoding="utf-8-sig")
+    except UnicodeDecodeError as e:
+        raise SceneError(f"{label}: not a UTF-8 text file ({e.reason} at byte "
+                         f"{e.start})") from None
+    lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
+    if len(lines) < 2:
+        raise SceneError(f"{label}: expected a header row and at least one {rows} row")
+    header = [h.strip() for h in lines[0].split(",")]
+    twice = sorted({h for h in header if header.count(h) > 1})
+    if twice:
+        raise SceneError(f"{label}: column {twice[0]!r} appears more than once in the header")
+    try:
+        data = np.loadtxt(lines[1:], delimiter=",", dtype=np.float64, ndmin=2)
+    except ValueError as e:
+        raise SceneError(f"{label}: unreadable CSV data: {e}") from None
+    if data.shape[1] != len(header):
+        raise SceneError(f"{label}: {data.shape[1]} columns but {len(header)} header names")
+    return {h: data[:, j] for j, h in enumerate(header)}
+
+
+def particles_from_file(name: Any, base_dir: Path) -> dict[str, np.ndarray]:
+    path = data_file(name, base_dir, "particles_file", ".csv or .h5")
+    label = f"particles_file = {name!r}"
     cols: dict[str, np.ndarray] = {}
     if path.suffix.lower() == ".csv":
-        # a byte-order mark (spreadsheet exports) and '#' comment lines are allowed
-        try:
-            text = path.read_text(encoding="utf-8-sig")
-        except UnicodeDecodeError as e:
-            raise SceneError(f"{label}: not a UTF-8 text file ({e.reason} at byte "
-                             f"{e.start})") from None
-        lines = [ln for ln in text.splitlines() if ln.strip() and not ln.lstrip().startswith("#")]
-        if len(lines) < 2:
-            raise SceneError(f"{label}: expected a header row and at least one particle row")
-        header = [h.strip() for h in lines[0].split(",")]
-        twice = sorted({h for h in header if header.count(h) > 1})
-        if twice:
-            raise SceneError(f"{label}: column {twice[0]!r} appears more than once in the header")
-        try:
-            data = np.loadtxt(lines[1:], delimiter=",", dtype=np.float64, ndmin=2)
-        except ValueError as e:
-            raise SceneError(f"{label}: unreadable CSV data: {e}") from None
-        if data.shape[1] != len(header):
-            raise SceneError(f"{label}: {data.shape[1]} columns but {len(header)} header names")
-        cols = {h: data[:, j] for j, h in enumerate(header)}
+        cols = csv_columns(path, label, "particle")
     elif path.suffix.lower() in (".h5", ".hdf5"):
         import h5py  # only free scenes with HDF5 input pay for the import
 

@@ -1,8 +1,8 @@
 """Initial configurations: random non-overlapping placement in the extended annulus (Couette) or
-the explicit particles of a free scene, plus the wall disks glued to the rings.
+the explicit particles of a free scene, plus the wall disks of the boundaries.
 
-Stage: set-up. Returns plain arrays ordered by gid (free particles first, then inner wall disks,
-then outer wall disks). Randomness comes from one generator seeded by the scene seed, so every
+Stage: set-up. Returns plain arrays ordered by gid (free particles first, then the wall disks
+of every boundary, boundaries.py). Randomness comes from one generator seeded by the scene seed, so every
 rank builds the same configuration.
 
 Placement: near 0.5 area fraction, random sequential insertion jams, so particles sit on a
@@ -18,8 +18,9 @@ from typing import NamedTuple
 import numpy as np
 
 from .scene import Scene, SceneError
-from ..core.state import FREE, INNER_WALL, OUTER_WALL, ROW_ROOM, Particles, new_particles
-from ..walls import wall_disk_angles, wall_layout
+from ..boundaries import glued_disks
+from ..core.state import FREE, ROW_ROOM, Particles, new_particles
+from ..walls import wall_layout
 
 
 class Initial(NamedTuple):
@@ -37,16 +38,27 @@ class Initial(NamedTuple):
 
 
 def initial_configuration(scene: Scene) -> Initial:
+    """The free disks (placed, or a free scene's own), then every boundary's wall disks
+    (``boundaries.glued_disks``), at rest and infinitely massive."""
     if scene.info.kind == "free":
         p = scene.particles
-        n = p.x.size
-        return Initial(np.column_stack([p.x, p.y]), np.column_stack([p.vx, p.vy]),
-                       np.array(p.omega, float), 0.5 * np.asarray(p.diameter, float),
-                       np.array(p.mass, float), np.zeros(n, np.int8), np.zeros(n), n)
-    return _couette(scene)
+        x, v, omega = np.column_stack([p.x, p.y]), np.column_stack([p.vx, p.vy]), p.omega
+        radius, mass = 0.5 * np.asarray(p.diameter, float), p.mass
+    else:
+        x, radius, mass = _couette(scene)
+        v, omega = np.zeros_like(x), np.zeros(radius.size)
+    n, w = radius.size, glued_disks(scene)
+    k = w.radius.size
+    return Initial(np.vstack([x, w.x]), np.vstack([v, np.zeros((k, 2))]),
+                   np.concatenate([omega, np.zeros(k)]), np.concatenate([radius, w.radius]),
+                   np.concatenate([mass, np.full(k, np.inf)]),
+                   np.concatenate([np.full(n, FREE, np.int8), w.kind]),
+                   np.concatenate([np.zeros(n), w.phi0]), n)
 
 
-def _couette(scene: Scene) -> Initial:
+def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Free disks placed at random between the rings (clear of their wall disks): x, radius,
+    mass."""
     g = scene.geometry
     rng = np.random.default_rng(scene.info.seed)
     counts = [s.count for s in scene.species]
@@ -77,20 +89,7 @@ def _couette(scene: Scene) -> Initial:
     ang = rng.uniform(0.0, 2.0 * math.pi, n)
     rad = room * np.sqrt(rng.uniform(0.0, 1.0, n))
     x = chosen + np.column_stack([rad * np.cos(ang), rad * np.sin(ang)])
-    phi_in = wall_disk_angles(inner.count)
-    phi_out = wall_disk_angles(outer.count)
-    nw = phi_in.size + phi_out.size
-    r0 = np.concatenate([np.full(phi_in.size, g.inner_radius),
-                         np.full(phi_out.size, g.outer_start_radius)])
-    phi = np.concatenate([phi_in, phi_out])
-    xw = np.column_stack([r0 * np.cos(phi), r0 * np.sin(phi)])
-    kind = np.concatenate([np.full(n, FREE), np.full(phi_in.size, INNER_WALL),
-                           np.full(phi_out.size, OUTER_WALL)]).astype(np.int8)
-    return Initial(np.vstack([x, xw]), np.zeros((n + nw, 2)), np.zeros(n + nw),
-                   np.concatenate([radius, np.full(phi_in.size, inner.diameter / 2),
-                                   np.full(phi_out.size, outer.diameter / 2)]),
-                   np.concatenate([mass, np.full(nw, np.inf)]), kind,
-                   np.concatenate([np.zeros(n), phi]), n)
+    return x, radius, mass
 
 
 def _lattice_sites(r_lo: float, r_hi: float, n: int, min_spacing: float):

@@ -14,13 +14,17 @@ import dataclasses
 import hashlib
 import json
 from dataclasses import MISSING, dataclass, field
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from ..contact.keys import foreign_keys
 from ..contact.normal import LAWS
 from .errors import SceneError  # noqa: F401  (importers of the scene types read it here)
+from .values import Columns
+
+if TYPE_CHECKING:
+    from ..wall_file import WallDisks
 
 
 def key(default: Any = MISSING, unit: str = "", rule: str = ""):
@@ -100,11 +104,12 @@ _PUNITS = {"x": "m", "y": "m", "vx": "m/s", "vy": "m/s", "omega": "rad/s", "diam
 
 
 @dataclass(frozen=True, eq=False)
-class FreeParticles:
+class FreeParticles(Columns):
     """Free-scene particles, row i = particle id i: read-only float64 arrays x, y (m, required),
     vx, vy (m/s, default 0), omega (rad/s, default 0), diameter (m, required), mass (kg,
     required). All of one length N >= 1."""
 
+    COLUMNS = _PCOLS
     x: np.ndarray
     y: np.ndarray
     vx: np.ndarray
@@ -113,22 +118,8 @@ class FreeParticles:
     diameter: np.ndarray
     mass: np.ndarray
 
-    def __post_init__(self) -> None:
-        for k in _PCOLS:
-            a = np.array(getattr(self, k), dtype=np.float64)
-            a.setflags(write=False)
-            object.__setattr__(self, k, a)
-
     def __len__(self) -> int:
         return int(self.x.size)
-
-    def __eq__(self, other: object) -> bool:
-        if not isinstance(other, FreeParticles):
-            return NotImplemented
-        return all(np.array_equal(getattr(self, k), getattr(other, k)) for k in _PCOLS)
-
-    def __hash__(self) -> int:
-        return hash(tuple(getattr(self, k).tobytes() for k in _PCOLS))
 
 
 @dataclass(frozen=True)
@@ -243,7 +234,8 @@ class AveragingCfg:
 class Scene:
     """A complete validated scene. ``geometry`` and ``species`` are set for couette scenes,
     ``particles`` for free ones; ``averaging`` is None without an ``[averaging]`` table;
-    ``source`` is the file it was loaded from (not part of equality or ``to_dict``)."""
+    ``source`` is the file it was loaded from (not part of equality or ``to_dict``);
+    ``wall_disks``: fixed wall disks (wall_file.py), None without."""
 
     info: SceneInfo
     geometry: Geometry | None
@@ -256,6 +248,7 @@ class Scene:
     output: OutputCfg
     averaging: AveragingCfg | None
     source: str | None = field(default=None, compare=False)
+    wall_disks: WallDisks | None = None
 
     @property
     def n_free(self) -> int:
@@ -282,6 +275,8 @@ class Scene:
         if self.particles is not None:
             cols = [getattr(self.particles, k).tolist() for k in _PCOLS]
             d["particles"] = [dict(zip(_PCOLS, row)) for row in zip(*cols)]
+        if self.wall_disks is not None:
+            d["wall_disks"] = self.wall_disks.rows()
         d["contact"] = {k: v for k, v in dataclasses.asdict(self.contact).items()
                         if k not in foreign_keys(self.contact.normal)}
         d["effects"] = dataclasses.asdict(self.effects)

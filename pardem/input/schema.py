@@ -15,6 +15,7 @@ from typing import Any
 
 from ..contact.keys import check_law, check_slots
 from .particles import check_particles, particles_from_file, particles_from_tables
+from ..wall_file import wall_disks_of
 from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
                     SceneError, SceneInfo, Species, TimeCfg)
 from .values import AUTO, BOOL, FLOAT, INT, INT_AUTO, REQ, STR, fail, rule_ok, show, value
@@ -34,8 +35,8 @@ _TABLES = {name: _schema(cls) for name, cls in (
     ("scene", SceneInfo), ("geometry", Geometry), ("species", Species), ("contact", Contact),
     ("effects", Effects), ("time", TimeCfg), ("neighbors", Neighbors), ("output", OutputCfg),
     ("averaging", AveragingCfg))}
-_TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "contact", "effects",
-             "time", "neighbors", "output", "averaging")
+_TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "wall_disks",
+             "wall_disks_file", "contact", "effects", "time", "neighbors", "output", "averaging")
 
 
 def _parse(raw: Any, table: str, label: str) -> dict[str, Any]:
@@ -70,7 +71,7 @@ def _table_list(raw: Any, name: str) -> list[Any]:
 def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
                     source: str | None = None) -> Scene:
     """Validate a dict in the TOML layout (as tomllib returns it) and build a Scene.
-    ``base_dir`` resolves a relative ``particles_file``."""
+    ``base_dir`` resolves a relative ``particles_file`` and ``wall_disks_file``."""
     if not isinstance(d, dict):
         raise SceneError(f"scene: expected a table, got {show(d)}")
     for key in d:
@@ -138,7 +139,8 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
                              "or particles_file")
     return Scene(SceneInfo(**info), geometry, species, particles, Contact(**c), Effects(**e),
                  TimeCfg(**opt["time"]), Neighbors(**opt["neighbors"]),
-                 OutputCfg(**opt["output"]), averaging, source)
+                 OutputCfg(**opt["output"]), averaging, source,
+                 wall_disks_of(d, kind, particles, Path(base_dir)))
 
 
 def _species(rows: list[Any]) -> tuple[Species, ...]:

@@ -78,3 +78,24 @@ def rule_ok(v: Any, rule: str) -> tuple[bool, str]:
 
 def fail(label: str, key: str, v: Any, why: str, unit: str = "") -> SceneError:
     return SceneError(f"{label} {key} = {show(v)}: {why}" + (f" ({unit})" if unit else ""))
+
+
+class Columns:
+    """Base of a frozen dataclass of float64 columns named in ``COLUMNS``: stored as read-only
+    arrays, compared and hashed by value (a scene is a value)."""
+
+    COLUMNS: tuple[str, ...] = ()
+
+    def __post_init__(self) -> None:
+        for k in self.COLUMNS:
+            a = np.array(getattr(self, k), dtype=np.float64)
+            a.setflags(write=False)
+            object.__setattr__(self, k, a)
+
+    def __eq__(self, other: object) -> bool:
+        if type(other) is not type(self):
+            return NotImplemented
+        return all(np.array_equal(getattr(self, k), getattr(other, k)) for k in self.COLUMNS)
+
+    def __hash__(self) -> int:
+        return hash(tuple(getattr(self, k).tobytes() for k in self.COLUMNS))

@@ -19,8 +19,9 @@ Most neighbour builds only rebuild each rank's lists: the ghosts are selected wi
    will need as ghosts: those within ``ghost_width`` of its domain (largest free diameter +
    skin, which covers every pair the Verlet list can hold, + the margin);
 3. fixes the per-step refresh plan (``halo.Halo``): the same particles in the same order.
-Wall disks are prescribed (a function of time only): every rank holds all of them and places them
-itself, the ones near its domain at every step, the others at exchanges and before output.
+Wall disks are prescribed (a function of time only): every rank holds all of them; the step loop
+moves the ones near its domain, and ``rebuild.Rebuilder`` places the others before an exchange
+(which stores the near ones first) and before output.
 """
 
 from __future__ import annotations
@@ -31,11 +32,11 @@ import numpy as np
 from mpi4py import MPI
 
 from ..contact.history import NO_HISTORY
-from ..core.state import row_columns, row_width
+from ..core.state import ROW_ROOM, new_particles, packed, row_columns, row_width, unpack_particles
 from . import cut as ct
 from .choice import choose, cut_for
 from .comm_rows import sorted_rows
-from .exchange import ExchangePlan, exchange_rows
+from .exchange import ExchangePlan, arrange_walls, exchange_rows
 from .halo import (GHOST_VALUES, HEADER, Halo, SharedWindow, halo_buffers, handles_of,
                    make_halo)
 from .serial import History
@@ -157,7 +158,7 @@ class Decomposition:
         pair, and every owned particle lay in its domain, so while no body has moved more than
         margin/2 since then, every partner of an owned particle within the reach is still here
         (its distance to the domain then is at most reach + 2 x margin/2), and the wall disks
-        the step loop moves still cover the domain (``order_walls``). The test takes each
+        the step loop moves still cover the domain (``exchange``). The test takes each
         body's own displacement since the exchange (the rows keep their order until the next
         one), the largest over all ranks, so every rank gets the same answer. The sum of each
         build's largest displacement bounds it too, but grows by about skin/2 per build
@@ -169,27 +170,21 @@ class Decomposition:
             moved = ct.largest_move(x_local, self.x_exchanged)
         return self.max(moved) > 0.5 * self.margin
 
-    def exchanged(self, x_local: np.ndarray) -> None:
-        """After an exchange, once its rows are stored (owned particles, then the wall disks,
-        all placed at the current time): where they are now."""
-        self.x_exchanged = x_local.copy()
-
-    def distribute(self, ps, pairs, clock, counts: tuple[int, int, int], hist: int,
-                   ring_walls: bool, history: History | None, t: float, prm,
-                   wall_margin: float):
+    def exchange(self, ps, pairs, clock, hist: int, history: History | None,
+                 wall_margin: float):
         """Migrate owned particles that left the domain, with their contact history, and
         exchange ghosts, in one round (``exchange.exchange_rows``; it sets the counts in
-        clock); sets ``self.halo`` for the ghosts' per-step refresh. ``counts``: (n_owned,
-        n_local, idle) as in exchange_rows. History: ``history`` if given (a restart), else the
-        non-zero rows of ``pairs`` (``hist`` columns, 0: none). If ps is large enough, the new
-        rows are stored in it, the idle wall disks placed at time t (s), the wall disks within
-        ``wall_margin`` (m) of the domain stored first, and the lists built (pair list, and the
-        ring-contact candidates if ``ring_walls``; ``prm``: the step loop's Params). Returns
-        ``(written, moved, own, walls, ghosts, lists, history)``: lists as from exchange_rows,
-        the rest as from ``receive_rows``."""
-        err, (written, moved, _, n_near, n_arrived, own, walls, ghosts, springs, buffers), \
-            (peer_at, need), lists = exchange_rows(*self.exchange_arguments(
-                ps, pairs, clock, counts, hist, ring_walls, history, t, prm, wall_margin))
+        clock), then lay the rows out as [owned | wall disks, those within ``wall_margin`` (m)
+        of the domain first | ghosts], in ps if they fit, else in larger arrays; sets
+        ``self.halo`` for the ghosts' per-step refresh. Every wall disk must be at the current
+        time: the layout sorts them by where they are, and they are where the next
+        ``exchange_due`` measures from. History: ``history`` if given (a restart), else the
+        non-zero rows of ``pairs`` (``hist`` columns, 0: none). Returns ``(ps, history)``: the
+        arrays that hold the rows, and the history with the migrants' merged in (None
+        without history columns)."""
+        arguments = self.exchange_arguments(ps, pairs, clock, hist, history, wall_margin)
+        err, (written, moved, _, _, n_arrived, own, walls, ghosts, springs, buffers), \
+            (peer_at, need) = exchange_rows(*arguments)
         if err:
             raise RuntimeError(f"MPI exchange of migrants and ghosts failed on rank {self.rank}")
         self.n_migrated += n_arrived
@@ -209,17 +204,25 @@ class Decomposition:
             use_allreduce = self.comm.allreduce(use_allreduce, op=MPI.LOR)
         self.halo = make_halo(self.comm, buffers, use_allreduce, self.wait,
                               self.window if shared else None, peer_at)
-        return written, moved, own, walls, ghosts, lists, (springs if hist else None)
+        n_owned, n_local = int(clock.n_owned[0]), int(clock.n_local[0])
+        if not written:  # ps too small: store the rows in larger arrays
+            rows = np.concatenate([own, walls, ghosts] if moved else
+                                  [packed(ps, np.arange(n_local), hist), ghosts])
+            ps = new_particles(int(ROW_ROOM * rows.shape[0]), hist)
+            unpack_particles(rows, ps, 0)
+            clock.n_moving[0] = n_owned + arrange_walls(ps, n_owned, n_local, arguments[4])
+        self.x_exchanged = ps.x[:n_local].copy()
+        return ps, (springs if hist else None)
 
-    def exchange_arguments(self, ps, pairs, clock, counts, hist, ring_walls, history, t, prm,
-                           wall_margin) -> tuple:
-        """The arguments of ``exchange.exchange_rows`` for ``distribute``'s (also what
+    def exchange_arguments(self, ps, pairs, clock, hist, history, wall_margin) -> tuple:
+        """The arguments of ``exchange.exchange_rows`` for ``exchange``'s (also what
         ``compile_ahead`` compiles it for)."""
         plan = ExchangePlan(self.cut.radii, self.cut.edges, self.rank, self.ghost_width,
                             wall_margin, row_width(hist), row_columns(hist)["x"].start,
-                            self.shared_halo, ring_walls)
+                            self.shared_halo)
+        counts = (int(clock.n_owned[0]), int(clock.n_local[0]))
         return (ps, pairs, clock, counts, plan, hist > 0 and history is None,
-                history if history is not None else NO_HISTORY, t, prm, self.handles)
+                history if history is not None else NO_HISTORY, self.handles)
 
     def empty_halo(self) -> Halo:
         """A refresh plan with no ghosts, of the same numba types as the real ones (what

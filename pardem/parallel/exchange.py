@@ -2,12 +2,12 @@
 selects): migration with contact history and ghost selection in one round, then the new layout
 of the rows, the wall disks near the domain, and the per-step refresh plan.
 
-Stage: neighbour rebuild (``comm.Decomposition.distribute`` calls ``exchange_rows``; the
+Stage: neighbour rebuild (``comm.Decomposition.exchange`` calls ``exchange_rows``; the
 collective itself is ``halo.alltoallv``). Done as ~80 numpy and mpi4py calls with the
 interpreter's caches cold after the step loop, the glue of a build cost more than its work, so
 an exchange build is four compiled calls (send, receive and lay out, the shared-memory
-offsets, the lists) around one Alltoall + Alltoallv. The other builds are one compiled call
-(``neighbors.build_lists``).
+offsets, then the lists, which ``rebuild.Rebuilder`` builds) around one Alltoall + Alltoallv.
+The other builds are one compiled call (the lists).
 
 One round suffices because the sender knows where each of its particles goes: to rank r it
 sends the particles r will own (migrants, with the springs of their listed pairs) and the
@@ -30,10 +30,8 @@ import numpy as np
 
 from ..contact.history import SHIFT, live_history, merge_history
 from ..core.jit import JIT, copy_values
-from ..core.neighbors import build_lists
 from ..core.sorted_runs import merge_slots, run_order
 from ..core.state import move_rows, pack_particles, unpack_particles
-from ..walls import place_wall_disks
 from .halo import alltoallv, halo_buffers, peer_offsets
 from .cut import domain_geometry, edge_distance, near, owners
 
@@ -43,8 +41,7 @@ class ExchangePlan(NamedTuple):
     ``cut.Cut``), this ``rank``, ``ghost_width`` (m: particles this close to a domain are its
     ghosts), ``wall_margin`` (m: wall disks this close to the domain are moved by its rank),
     ``width`` (columns of a packed row) and ``x_col`` (its first position column), ``shared``
-    (the refresh goes through shared memory) and ``ring_walls`` (build the ring-contact
-    candidates)."""
+    (the refresh goes through shared memory)."""
 
     radii: np.ndarray
     edges: np.ndarray
@@ -54,7 +51,6 @@ class ExchangePlan(NamedTuple):
     width: int
     x_col: int
     shared: bool
-    ring_walls: bool
 
 
 @nb.njit(**JIT)
@@ -64,26 +60,23 @@ def _destination(gid, mig_gid, mig_dest):
     return mig_dest[k] if k < mig_gid.size and mig_gid[k] == gid else -1
 
 
-def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, handles):
+def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, handles):
     """The whole exchange (collective): ``send_rows``, ``receive_rows``, with a shared-memory
-    refresh ``halo.peer_offsets``, and the new counts in clock. ``counts``: (n_owned, n_local,
-    idle) before it (owned rows, owned rows + wall disks, wall disks not moved since the last
-    exchange). ``history``: (lo, hi, rows), used unless ``from_list`` (the springs of the current
-    pair list). If the rows were written, also the lists (``neighbors.build_lists``, history
-    carried from the merged one). Returns ``(mpi_error, received, peers, lists)``: received as
-    from receive_rows, peers (peer_at, need) or empty, lists (pair count, ring candidate count)
-    from build_lists, or (-1, -1) if not built.
+    refresh ``halo.peer_offsets``, and the new counts in clock. ``counts``: (n_owned, n_local)
+    before it (owned rows, owned rows + wall disks). ``history``: (lo, hi, rows), used unless
+    ``from_list`` (the springs of the current pair list). Returns ``(mpi_error, received,
+    peers)``: received as from receive_rows, peers (peer_at, need) or empty.
 
-    Four compiled calls from Python, not one compiled call around them: numba optimises a
+    Three compiled calls from Python, not one compiled call around them: numba optimises a
     kernel's code again with the code of every kernel it calls linked in, so a compiled
     wrapper would add ~4 s to the first run's compile for ~0.1 ms per exchange saved."""
     n_owned = counts[0]
     rbuf, recv_off, owner, history, err = send_rows(ps, pairs, n_owned, plan, from_list, history,
                                                     handles)
-    received = receive_rows(ps, counts, owner, (rbuf, recv_off), plan, history, t, prm,
-                            handles, err == 0)
-    written, _, n_own, n_near, _, _, _, ghosts, springs, buffers = received
-    history = None  # merged into springs: not kept through the build (peak memory at 10^6)
+    received = receive_rows(ps, counts, owner, (rbuf, recv_off), plan, history, handles,
+                            err == 0)
+    written, _, n_own, n_near, _, _, _, ghosts, _, buffers = received
+    history = None  # merged into the received springs: not kept (peak memory at 10^6)
     peer_at, need = np.zeros(0, np.int64), 0
     if plan.shared:
         peer_at, need, err2 = peer_offsets(buffers[0], buffers[1], buffers[2], handles)
@@ -91,12 +84,9 @@ def exchange_rows(ps, pairs, clock, counts, plan, from_list, history, t, prm, ha
     clock.n_owned[0] = n_own
     clock.n_local[0] = n_own + counts[1] - n_owned
     clock.n_ghost[0] = ghosts.shape[0]
-    count, n_wall = -1, -1
     if written:
         clock.n_moving[0] = n_own + n_near
-        count, n_wall, _ = build_lists(ps, pairs, clock, prm, t, False, springs,
-                                       plan.ring_walls)
-    return err, received, (peer_at, need), (count, n_wall)
+    return err, received, (peer_at, need)
 
 
 @nb.njit(**JIT)
@@ -168,18 +158,17 @@ def send_rows(ps, pairs, n_owned, plan, from_list, history, handles):
 
 
 @nb.njit(**JIT)
-def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, write):
+def receive_rows(ps, counts, owner, received, plan, history, handles, write):
     """Lay out [owned, gid-sorted | wall disks | ghosts, sorted by (owner, gid)] from the kept
     rows and the messages of ``send_rows`` (``received``: rbuf, recv_off), merge the migrants'
     history into ``history`` (lo, hi, rows), and plan the per-step refresh. ``counts`` as in
     exchange_rows. If ``write`` and ps is large enough, the rows are written (the owned ones
     moved in place, ``state.move_rows``; only the ghosts if no owned row left or arrived) and
-    the wall disks arranged (``arrange_walls``; the ``idle`` last ones are placed at time t
-    first). Returns ``(written, moved, n_own, n_near, n_arrived, own, walls, ghosts, history,
+    the wall disks arranged (``arrange_walls``). Returns ``(written, moved, n_own, n_near, n_arrived, own, walls, ghosts, history,
     halo)``: n_own the new number of owned rows, halo the ``halo_buffers`` of the refresh plan.
     If not written, the caller stores own and walls (if moved; else they are empty and
     ps[:n_local] stays) and ghosts; if written, own is empty."""
-    n_owned, n_local, idle = counts
+    n_owned, n_local = counts
     rbuf, recv_off = received
     rank, ghost_width, width = plan.rank, plan.ghost_width, plan.width
     lo, hi, xi = history
@@ -264,7 +253,7 @@ def receive_rows(ps, counts, owner, received, plan, history, t, prm, handles, wr
         if moved:
             unpack_particles(walls, ps, n_own)
         unpack_particles(ghosts, ps, n_new)
-        n_near = arrange_walls(ps, n_own, n_new - idle, n_new, t, prm, plan)
+        n_near = arrange_walls(ps, n_own, n_new, plan)
     return (written, moved, n_own, n_near, n_arr, own, walls, ghosts, (lo, hi, xi),
             halo_buffers(refresh, handles))
 
@@ -302,13 +291,11 @@ def _refresh_plan(x_own, ghost_key, e, rank, ghost_width):
 
 
 @nb.njit(**JIT)
-def arrange_walls(ps, first, first_idle, end, t, prm, plan):
-    """At an exchange: place the idle wall disks ps[first_idle:end] at time t (the step loop
-    moved only ps[first:first_idle]), then store the wall disks ps[first:end] that are within
-    ``plan.wall_margin`` (m) of this rank's domain or inside it first. Returns how many that
-    is. One compiled call: at an exchange, every call from Python that passes the particle
-    arrays costs tens of us."""
-    place_wall_disks(ps, first_idle, end, t, prm.rings, False)
+def arrange_walls(ps, first, end, plan):
+    """At an exchange: store the wall disks ps[first:end] (every one placed at the current
+    time) that are within ``plan.wall_margin`` (m) of this rank's domain or inside it first.
+    Returns how many that is. One compiled call: at an exchange, every call from Python that
+    passes the particle arrays costs tens of us."""
     close = near(ps.x[first:end], plan.radii, plan.edges, plan.rank, plan.wall_margin)
     n_near = int(close.sum())
     if not close[:n_near].all():  # not yet stored near-first

@@ -55,9 +55,6 @@ class SerialDecomposition:
     def exchange_due(self, x_local: np.ndarray) -> bool:
         return False
 
-    def exchanged(self, x_local: np.ndarray) -> None:
-        pass
-
     def ghost_values(self, own_values: np.ndarray) -> np.ndarray:
         return own_values[:0]
 

@@ -114,15 +114,15 @@ def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
     exchanges = run.decomp.n_exchanges
     spent = []  # s per exchange (the build that migrates, selects ghosts and lists)
     if comm.size > 1:
-        distribute = run.decomp.distribute
+        rebuild = run.rebuilder.rebuild
 
-        def timed(*args):
-            t = time.perf_counter()
-            out = distribute(*args)
-            spent.append(time.perf_counter() - t)
-            return out
+        def timed(*args, **kwargs):
+            t, before = time.perf_counter(), run.decomp.n_exchanges
+            rebuild(*args, **kwargs)
+            if run.decomp.n_exchanges > before:
+                spent.append(time.perf_counter() - t)
 
-        run.decomp.distribute = timed
+        run.rebuilder.rebuild = timed
     comm.Barrier()
     t0 = time.perf_counter()
     run.advance_steps(steps)

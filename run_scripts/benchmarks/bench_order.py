@@ -58,7 +58,7 @@ def relabel(sim, curve: str) -> None:
             a[:n] = a[:n][order]
     ps.gid[:n] = np.arange(n)
     sim.pairs.count[0] = 0  # the springs start afresh: the old gids no longer apply
-    sim._rebuild(history=None, rebalance=False)
+    sim.rebuilder.rebuild(history=None, rebalance=False)
 
 
 def stage_times(sim) -> dict[str, float]:

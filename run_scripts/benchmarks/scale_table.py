@@ -15,7 +15,8 @@ smallest scene's 1-rank median (per-particle cost, same invocation), the speed-u
 (median of the per-round ratios and their range), the largest resident memory per rank (MB, and
 bytes per owned disk), the restart's set-up (s, compiled code loaded from the cache), ghosts
 per rank, and neighbour builds per 1000 steps; each run's line gives rank 0's time per build,
-exchanges (migration, ghost selection and the lists, ``Decomposition.distribute``) apart.
+exchanges (migration, ghost selection and the lists: the builds that call
+``Decomposition.exchange``) apart.
 """
 
 from __future__ import annotations

@@ -55,19 +55,19 @@ def main() -> None:
     took = time.perf_counter() - t0
     at_setup = high_water()
     after = resident()
-    original = Simulation._rebuild
+    original = sim.rebuilder.rebuild
 
     peak_rises = {}
 
-    def staged(self, *a, **k):
-        stage = "exchange" if self.decomp.parallel and k.get("exchange", True) else "build"
-        before = high_water()
+    def staged(*a, **k):
+        before, exchanges = high_water(), sim.decomp.n_exchanges
         try:
-            return original(self, *a, **k)
+            return original(*a, **k)
         finally:
+            stage = "exchange" if sim.decomp.n_exchanges > exchanges else "build"
             peak_rises[stage] = peak_rises.get(stage, 0) + high_water() - before
 
-    Simulation._rebuild = staged
+    sim.rebuilder.rebuild = staged
     sim.advance_steps(args.steps)
     peak = high_water()
     peak_rises["steps"] = peak - at_setup - sum(peak_rises.values())

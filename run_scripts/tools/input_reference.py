@@ -39,7 +39,7 @@ table, the key, the value and what is allowed (exit status 2).
 
 Two kinds of scene: `kind = "couette"` (disks of the `[[species]]` placed at random between two
 rings, the inner one turning; the paper's cell) and `kind = "free"` (explicit particles, no
-rings: `[[particles]]` tables or a `particles_file`).
+rings: `[[particles]]` tables or a `particles_file`, and optionally fixed wall disks).
 
 This page is generated from the declarations in `pardem/input/scene.py` by
 `python run_scripts/tools/input_reference.py`.
@@ -57,6 +57,22 @@ file's folder.
 {rows}
 
 {doc}
+"""
+
+WALLS = """## Fixed wall disks: `wall_disks_file` or `[[wall_disks]]`
+
+Free scenes only, one or the other, optional (a boundary: docs/extending.md, "Adding a
+boundary"). `wall_disks_file = "FILE.csv"` reads disks that never move, infinitely massive,
+from a `.csv` file with the header `x,y,diameter` (`#` comment lines allowed), relative to the
+scene file's folder; each `[[wall_disks]]` table is one such disk with the same keys (the
+resolved scene holds them so). They follow the free particles in id order; no free particle
+may start more than 1 % of the smaller diameter into one.
+
+| column | unit | default |
+|---|---|---|
+| `x` | m | required |
+| `y` | m | required |
+| `diameter` | m | required |
 """
 
 
@@ -119,6 +135,7 @@ def render() -> str:
     prows = "\n".join(f"| `{k}` | {u} | {'0' if k in ('vx', 'vy', 'omega') else 'required'} |"
                       for k, u in _PUNITS.items())
     parts.append(FREE.format(rows=prows, doc=_doc(FreeParticles)))
+    parts.append(WALLS)
     return "\n".join(parts)
 
 

@@ -15,7 +15,7 @@ or with an exchange), the ranks' pair lists together must be exactly the pairs a
 search finds in the gathered positions (a ghost missing after a build without exchange would
 lose a pair); the number of builds checked is saved. ``--no-room``: after every build the
 particle arrays are cut to the rows in use, so that an exchange that brings more rows than it
-takes away stores them through the caller's larger arrays (``rebuild.migrate``) instead of in
+takes away stores them in larger arrays (``Decomposition.exchange``) instead of in
 place; the number of such exchanges on a rank that received migrants is saved. ``--cut``: the
 decomposition (``Simulation(cut=...)``); the rings of the cut used are saved.
 ``--balance-threshold``: re-cut when the owned counts differ by more than this fraction
@@ -29,6 +29,7 @@ from mpi4py import MPI
 
 from pardem.parallel import comm as decomposition
 from pardem.parallel.halo import SharedWindow
+from pardem.core.rebuild import Rebuilder
 from pardem.input.scene_file import load_scene
 from pardem.simulation import Simulation
 from pardem.core.state import new_particles, packed, unpack_particles
@@ -59,28 +60,29 @@ def check_lists(sim, comm) -> None:
 
 
 def checked_rebuild(comm):
-    original = Simulation._rebuild
+    original = Rebuilder.rebuild
 
     def rebuild(self, *args, **kwargs):
         original(self, *args, **kwargs)
-        check_lists(self, comm)
+        check_lists(self.sim, comm)
     return rebuild
 
 
 def cut_to_rows_in_use(comm):
-    """Simulation._rebuild, then the particle arrays cut to their rows in use; counts in
+    """Rebuilder.rebuild, then the particle arrays cut to their rows in use; counts in
     REGROWN the builds that had to store the rows in larger arrays while migrants arrived."""
-    original = Simulation._rebuild
+    original = Rebuilder.rebuild
 
     def rebuild(self, *args, **kwargs):
-        ps, arrived = self.ps, self.decomp.n_migrated
+        sim = self.sim
+        ps, arrived = sim.ps, sim.decomp.n_migrated
         original(self, *args, **kwargs)
-        REGROWN[0] += self.ps is not ps and self.decomp.n_migrated > arrived
-        c = self.clock
+        REGROWN[0] += sim.ps is not ps and sim.decomp.n_migrated > arrived
+        c = sim.clock
         n = int(c.n_local[0] + c.n_ghost[0])
-        tight = new_particles(n, self.hist)
-        unpack_particles(packed(self.ps, np.arange(n), self.hist), tight, 0)
-        self.ps = tight
+        tight = new_particles(n, sim.hist)
+        unpack_particles(packed(sim.ps, np.arange(n), sim.hist), tight, 0)
+        sim.ps = tight
     return rebuild
 
 
@@ -102,16 +104,16 @@ def main():
         decomposition.SHARED_HALO_LIMIT = args.shared_limit
     comm = MPI.COMM_WORLD
     if args.check_lists:
-        Simulation._rebuild = checked_rebuild(comm)
+        Rebuilder.rebuild = checked_rebuild(comm)
     if args.no_room:
-        Simulation._rebuild = cut_to_rows_in_use(comm)
+        Rebuilder.rebuild = cut_to_rows_in_use(comm)
     sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm, cut=args.cut)
     if args.balance_threshold is not None:
         sim.decomp.balance_threshold = args.balance_threshold
     if args.grow_window and sim.decomp.window is not None:  # None: messages (oversubscribed)
         sim.decomp.window.free()
         sim.decomp.window = SharedWindow(comm, 4)
-        sim._rebuild()  # a build at the same state changes no bit; it replaces the window
+        sim.rebuilder.rebuild()  # a build at the same state changes no bit; it replaces the window
     if args.checkpoint_at:
         at = int(args.checkpoint_at[0])
         sim.advance_steps(at - int(sim.clock.step[0]))

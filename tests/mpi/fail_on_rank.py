@@ -7,16 +7,16 @@ import sys
 from mpi4py import MPI
 
 from pardem import cli
-from pardem.simulation import Simulation
+from pardem.core.rebuild import Rebuilder
 
-original = Simulation._rebuild
+original = Rebuilder.rebuild
 
 
 def _rebuild(self, *args, **kwargs):
-    if MPI.COMM_WORLD.rank == 1 and self.clock.step[0] > 500:
+    if MPI.COMM_WORLD.rank == 1 and self.sim.clock.step[0] > 500:
         raise RuntimeError("injected failure on rank 1")
     original(self, *args, **kwargs)
 
 
-Simulation._rebuild = _rebuild
+Rebuilder.rebuild = _rebuild
 sys.exit(cli.main(["run", sys.argv[1], "--out", sys.argv[2], "--end", "1.0", "--quiet"]))

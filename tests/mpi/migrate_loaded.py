@@ -69,7 +69,7 @@ def main():
     edges[0, 1] = e0 + ang_p - 1e-9
     sim.decomp.cut = sim.decomp.cut._replace(edges=edges)
     migrated0 = sim.decomp.n_migrated
-    sim._rebuild()
+    sim.rebuilder.rebuild()
     owned = set(sim.ps.gid[: int(sim.clock.n_owned[0])].tolist())
     arrived = comm.allgather(gid in owned)
     assert arrived == [False, True], arrived
