@@ -39,7 +39,7 @@ from .output.folder import FolderLock, claim
 from .output.progress import breakdown, log_line
 from .output.restart import put_recorded_forces, restore
 from .parallel import GHOST_MARGIN_SKINS, decomposition
-from .walls import rings_of, wall_layout
+from .boundaries.walls import rings_of, wall_layout
 
 
 class SimulationBuilder:

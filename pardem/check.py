@@ -16,7 +16,7 @@ from .input.scene_file import scene_to_toml
 from .core.scales import smallest_contact_time
 from .core.stability import stability_limit
 from .core.timestep import off_step_text, resolve_step
-from .walls import global_volume_fraction
+from .boundaries.walls import global_volume_fraction
 
 REFERENCE_RATE = 25e6
 """Particle-steps per second of one rank on couette_B (docs/scaling.md, 2-core machine)."""

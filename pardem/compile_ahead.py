@@ -30,7 +30,7 @@ from .contact.history import NO_HISTORY
 from .core.forces import ForceWork, contact_forces
 from .core.neighbors import build_lists
 from .parallel import barrier
-from .ring_forces import ring_contacts
+from .boundaries.ring_forces import ring_contacts
 
 
 def compile_first(decomp) -> None:

@@ -12,7 +12,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .core import diagnostics as diag
-from .walls import outer_radius
+from .boundaries.walls import outer_radius
 
 
 class LocalTables(NamedTuple):

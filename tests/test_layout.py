@@ -161,3 +161,14 @@ print("mpi4py" in sys.modules, "libmpi" in maps)
                           capture_output=True, text=True, timeout=600)
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["False", "False"]
+
+
+def test_the_kernel_cache_is_keyed_by_the_kernel_sources():
+    """The numba cache folder's name hashes every source that uses numba (core/jit.py): the
+    step loop, the contact law and the averaging's kernels among them, found from wherever
+    jit.py lies in the package."""
+    from pardem.core.jit import kernel_sources
+
+    found = {p.relative_to(ROOT).as_posix() for p in kernel_sources()}
+    assert {"pardem/core/step.py", "pardem/contact/model.py", "averaging/sums.py"} <= found
+    assert "pardem/input/scene.py" not in found  # no kernels: editing it keeps the cache

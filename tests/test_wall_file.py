@@ -1,4 +1,4 @@
-"""The boundary of fixed wall disks from a user's file (pardem/wall_file.py): a free disk
+"""The boundary of fixed wall disks from a user's file (pardem/boundaries/wall_file.py): a free disk
 rebounds off one as off an infinitely massive partner (the analytic collision), the wall disk
 never moves, a run holds its disks inside a container of them bit for bit alike on 1 and 2
 ranks, and a bad file or table is refused naming the key and the problem."""

@@ -15,7 +15,7 @@ from pardem.input.placement import initial_configuration
 from pardem.input.scene_file import load_scene, write_scene
 from pardem.simulation import Simulation
 from pardem.core.state import FREE, INNER_WALL, OUTER_WALL
-from pardem.walls import wall_layout
+from pardem.boundaries.walls import wall_layout
 
 ROOT = Path(__file__).parents[1]
 FAST = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,

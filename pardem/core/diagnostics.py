@@ -16,7 +16,7 @@ import numpy as np
 
 from ..contact.model import elastic_energy, history_columns
 from .jit import JIT
-from ..walls import ring_surface
+from ..boundaries.walls import ring_surface
 
 # A contact counts as sliding when its tangential force is at the Coulomb limit: the cap sets
 # |f_t| = mu |f_n| up to rounding.

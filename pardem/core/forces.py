@@ -25,7 +25,7 @@ from ..contact.model import history_width
 from ..contact.overlap import lane_overlap, note_deep, too_deep
 from .jit import INLINE, JIT
 from .pair_select import select_pairs, zero_pairs
-from ..ring_forces import ring_contacts
+from ..boundaries.ring_forces import ring_contacts
 
 
 # The selection pays while fewer than this fraction of the listed pairs have a force (B in

@@ -14,7 +14,7 @@ import numba as nb
 
 from .jit import INLINE
 from .state import OUTER_WALL
-from ..walls import outer_radius, outer_ring_settled, place_wall_disks
+from ..boundaries.walls import outer_radius, outer_ring_settled, place_wall_disks
 
 
 @nb.njit(**INLINE)

@@ -40,17 +40,25 @@ INLINE = dict(JIT, inline="always")
 KEEP_CACHES = 8
 
 
+def kernel_sources() -> list[Path]:
+    """Every source file of pardem and averaging that uses numba, in a fixed order: what the
+    cache folder's name is a hash of."""
+    root = Path(__file__).resolve().parents[2]  # the folder holding pardem/ and averaging/
+    return [path for package in ("pardem", "averaging")
+            for path in sorted((root / package).rglob("*.py")) if b"numba" in path.read_bytes()]
+
+
 def _source_keyed_cache() -> None:
     if os.environ.get("NUMBA_CACHE_DIR"):
         return
-    root = Path(__file__).resolve().parent.parent
+    sources = kernel_sources()
+    if not sources:  # a moved jit.py hashing nothing would share one cache among versions
+        raise RuntimeError(f"no kernel sources found from {__file__}")
+    root = Path(__file__).resolve().parents[2]
     digest = hashlib.sha1()
-    for package in ("pardem", "averaging"):
-        for path in sorted((root / package).rglob("*.py")):
-            text = path.read_bytes()
-            if b"numba" in text:
-                digest.update(path.relative_to(root).as_posix().encode())
-                digest.update(text)
+    for path in sources:
+        digest.update(path.relative_to(root).as_posix().encode())
+        digest.update(path.read_bytes())
     base = Path(os.environ.get("XDG_CACHE_HOME") or Path.home() / ".cache") / "pardem" / "numba"
     folder = base / digest.hexdigest()[:16]
     try:

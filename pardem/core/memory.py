@@ -33,7 +33,7 @@ import resource
 from contextlib import contextmanager
 from pathlib import Path
 
-from ..boundaries import wall_disk_count
+from ..boundaries.registry import wall_disk_count
 from ..parallel import size_of, smallest_node_share
 from ..input.scene import Scene, SceneError
 

@@ -20,7 +20,7 @@ import numpy as np
 from ..contact.history import carry_history, live_history
 from .jit import JIT
 from .sorted_runs import run_order
-from ..walls import outer_radius, ring_surface
+from ..boundaries.walls import outer_radius, ring_surface
 
 WALL_SKINS = 2.0
 """A free disk's pairs with wall disks are listed up to this many skins farther than free

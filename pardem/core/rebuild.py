@@ -30,7 +30,7 @@ from .integrate import wall_travel
 from .memory import unmapped
 from .neighbors import build_lists, next_wall_skin
 from .state import new_pairs
-from ..walls import place_wall_disks
+from ..boundaries.walls import place_wall_disks
 
 
 class Rebuilder:

@@ -31,11 +31,11 @@ from .jit import JIT
 
 if TYPE_CHECKING:
     from ..contact.model import LawParams
-    from ..walls import Rings
+    from ..boundaries.walls import Rings
 
 FREE, INNER_WALL, OUTER_WALL, FIXED_WALL = 0, 1, 2, 3
 """Values of ``Particles.kind``: a free disk, or a wall disk and the boundary it is glued to
-(the inner ring, the outer ring, none: a disk that never moves; boundaries.py)."""
+(the inner ring, the outer ring, none: a disk that never moves; boundaries/registry.py)."""
 
 
 class Particles(NamedTuple):
@@ -122,7 +122,8 @@ class Params(NamedTuple):
 
 class Clock(NamedTuple):
     """Integer clock. step[0]: steps taken (time = step * dt, never accumulated, so that restarts
-    and ranks agree bit for bit). phase[0]: 0 = step complete, 1 = drifted but forces pending, 2 = forces only (step.FORCES_ONLY).
+    and ranks agree bit for bit). phase[0]: 0 = step complete, 1 = drifted but forces pending,
+    2 = forces only (step.FORCES_ONLY).
     n_owned[0]: particles integrated (the leading block: free particles this rank owns).
     n_local[0]: owned particles + wall disks. n_moving[0] <= n_local[0]: owned particles + the
     wall disks near this rank's sector, stored first: the bodies the step loop moves (the

@@ -2,8 +2,8 @@
 the explicit particles of a free scene, plus the wall disks of the boundaries.
 
 Stage: set-up. Returns plain arrays ordered by gid (free particles first, then the wall disks
-of every boundary, boundaries.py). Randomness comes from one generator seeded by the scene seed, so every
-rank builds the same configuration.
+of every boundary, boundaries/registry.py). Randomness comes from one generator seeded by the
+scene seed, so every rank builds the same configuration.
 
 Placement: near 0.5 area fraction, random sequential insertion jams, so particles sit on a
 triangular lattice whose spacing is as large as the annulus allows, each jittered within the room
@@ -18,9 +18,9 @@ from typing import NamedTuple
 import numpy as np
 
 from .scene import Scene, SceneError
-from ..boundaries import glued_disks
+from ..boundaries.registry import glued_disks
 from ..core.state import FREE, ROW_ROOM, Particles, new_particles
-from ..walls import wall_layout
+from ..boundaries.walls import wall_layout
 
 
 class Initial(NamedTuple):

@@ -24,7 +24,7 @@ from .errors import SceneError  # noqa: F401  (importers of the scene types read
 from .values import Columns
 
 if TYPE_CHECKING:
-    from ..wall_file import WallDisks
+    from ..boundaries.wall_file import WallDisks
 
 
 def key(default: Any = MISSING, unit: str = "", rule: str = ""):

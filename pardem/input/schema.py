@@ -15,7 +15,7 @@ from typing import Any
 
 from ..contact.keys import check_law, check_slots
 from .particles import check_particles, particles_from_file, particles_from_tables
-from ..wall_file import wall_disks_of
+from ..boundaries.wall_file import wall_disks_of
 from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
                     SceneError, SceneInfo, Species, TimeCfg)
 from .values import AUTO, BOOL, FLOAT, INT, INT_AUTO, REQ, STR, fail, rule_ok, show, value
@@ -208,7 +208,7 @@ def densest_packing(species: tuple[Species, ...]) -> tuple[float, str]:
 def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, ...], Geometry]:
     """Every species' count: given, or from [geometry] volume_fraction and the shares (the
     resolved scene keeps the counts and drops the fraction and shares)."""
-    from ..walls import wall_area_share
+    from ..boundaries.walls import wall_area_share
 
     area = math.pi * (g.outer_radius**2 - g.inner_radius**2)
     walls = wall_area_share(g)
@@ -254,7 +254,7 @@ def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
                          f"gap must be larger than the largest diameter {big.diameter!r} m "
                          f"([[species]] {big.name!r})")
     geometry = Geometry(**g)
-    from ..walls import check_layout  # walls builds on scene types; imported here, not at the top
+    from ..boundaries.walls import check_layout  # walls builds on scene types; imported here, not at the top
 
     small = min((s.diameter for s in species if (s.count or 0) > 0 or s.share), default=None)
     if small is None:

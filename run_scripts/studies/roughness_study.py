@@ -37,7 +37,7 @@ from study_runs import (DOCS, MEASURES, ROOT, SEEDS, TABLES, measure_rows,  # no
                         rows_of, run_one, seed_stats, wall_fraction)
 
 from averaging.report import PAPER  # noqa: E402
-from pardem.walls import wall_layout  # noqa: E402
+from pardem.boundaries.walls import wall_layout  # noqa: E402
 
 WALL_FRACTION = (0.0047, 0.00005)  # the paper's v-bar_wall and the admitted tolerance
 

@@ -31,7 +31,7 @@ from averaging.report import global_volume_fraction, load_run, metrics  # noqa: 
 from pardem.output.snapshots import read_snapshots  # noqa: E402
 from pardem.input.scene_file import load_scene, write_scene  # noqa: E402
 from pardem.core.state import INNER_WALL  # noqa: E402
-from pardem.walls import wall_layout  # noqa: E402
+from pardem.boundaries.walls import wall_layout  # noqa: E402
 
 DOCS = ROOT / "docs"
 TABLES = DOCS / "roughness" / "runs"

@@ -16,9 +16,9 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from .boundary import NO_DISKS, Boundary, Glued
-from .core.jit import INLINE, JIT
-from .core.state import INNER_WALL, OUTER_WALL
+from .protocol import NO_DISKS, Boundary, Glued
+from ..core.jit import INLINE, JIT
+from ..core.state import INNER_WALL, OUTER_WALL
 
 
 class Rings(NamedTuple):
@@ -72,7 +72,7 @@ def place_wall_disks(ps, first, last, t, rings, settled):
     near after a re-cut is touched at once, so its prediction must be current too.
     ``settled`` (outer_ring_settled): skip the outer ring's disks, which would not change.
     The disks of any other boundary do not move: they keep the place and the zero velocity
-    they were given at set-up (boundaries.py)."""
+    they were given at set-up (registry.py)."""
     r_o, r_o_dot = outer_radius(t, rings)
     c, s = math.cos(rings.omega_in * t), math.sin(rings.omega_in * t)
     for k in range(first, last):

@@ -1,4 +1,4 @@
-"""The registry of boundaries (the protocol: boundary.py) and what the set-up asks of all of
+"""The registry of boundaries (the protocol: protocol.py) and what the set-up asks of all of
 them together.
 
 Stage: set-up. Wall disks follow the free disks in gid order, boundary by boundary in the
@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .boundary import Boundary, Glued
+from .protocol import Boundary, Glued
 from .wall_file import WALL_FILE
 from .walls import RINGS
 

@@ -25,7 +25,7 @@ The compiled side is small records and dispatches, as for the normal law (contac
 The flat surface and the moving disks are compiled in only when a scene has rings
 (``StepOptions.walls``, ``Params.wall_disks``); a boundary of fixed disks needs neither, so
 the step loop, the pair loop and the exchange treat its disks as any other wall disk. The
-registry of boundaries is ``boundaries.BOUNDARIES``; docs/extending.md, "Adding a boundary",
+registry of boundaries is ``registry.BOUNDARIES``; docs/extending.md, "Adding a boundary",
 walks through the file of fixed disks (``wall_file.py``).
 """
 

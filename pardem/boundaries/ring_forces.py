@@ -7,10 +7,10 @@ from __future__ import annotations
 
 import numba as nb
 
-from .contact.model import history_width, surface_contact
-from .contact.overlap import MAX_OVERLAP
-from .contact.overlap import note_deep
-from .core.jit import JIT
+from ..contact.model import history_width, surface_contact
+from ..contact.overlap import MAX_OVERLAP
+from ..contact.overlap import note_deep
+from ..core.jit import JIT
 from .walls import outer_radius, ring_surface
 
 

@@ -19,11 +19,11 @@ from typing import Any
 
 import numpy as np
 
-from .boundary import NO_DISKS, Boundary, Glued
-from .input.errors import SceneError
-from .input.particles import csv_columns, data_file
-from .core.state import FIXED_WALL
-from .input.values import FLOAT, Columns, fail, show, value
+from .protocol import NO_DISKS, Boundary, Glued
+from ..input.errors import SceneError
+from ..input.particles import csv_columns, data_file
+from ..core.state import FIXED_WALL
+from ..input.values import FLOAT, Columns, fail, show, value
 
 COLUMNS = ("x", "y", "diameter")
 MAX_FILE_DISKS = 1_000_000  # every rank holds every wall disk
