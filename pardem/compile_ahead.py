@@ -87,7 +87,7 @@ def _groups(sim, history) -> list[list]:
     plan = (positions, nb.typeof(NO_HISTORY[0]), nb.typeof(np.zeros((1, 2))), types.int64, f8)
     after_migration, early, late = _first_step(sim, state, f8)
     work = nb.typeof(ForceWork(np.zeros(1), np.zeros((2, 1), np.int32), np.zeros(2, np.int64),
-                               np.zeros(3), np.zeros(1, np.int8)))
+                               np.zeros(3)))
     return [
         _migration(tuple(nb.typeof(a) for a in exchange)) + after_migration,
         early + [(_refresh_plan, plan), (build_lists, lists),

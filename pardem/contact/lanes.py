@@ -17,8 +17,8 @@ from .normal import normal_width
 BATCH = 64  # pairs per batch of the force loop: its work rows stay in L1
 # Rows of the work array (each BATCH lanes): the inputs gathered per pair, the outputs, then
 # the history: W_HIST + c in, W_HIST + width + c out.
-(W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_FX, W_FY, W_TI, W_TJ, W_FN, W_FTX, W_FTY,
- W_HIST) = range(16)
+(W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_ACT, W_FX, W_FY, W_TI, W_TJ, W_FN, W_FTX,
+ W_FTY, W_HIST) = range(17)
 
 
 @nb.njit(**INLINE)
@@ -28,13 +28,13 @@ def work_size(o):
 
 
 @nb.njit(**INLINE)
-def lane_contact(work, lane, reach, law, o):
+def lane_contact(work, lane, reach, law, o, defer):
     """pair_force on one lane of the work rows: outputs and updated history written back
-    there; returns whether the pair is within reach of a force."""
+    there; returns ``(active, flagged)`` (flagged: deferred, redo without ``defer``)."""
     lc_hw = history_width(o)
     lc_in = W_HIST * BATCH + lane
     lc_out = (W_HIST + lc_hw) * BATCH + lane
-    if o.eta:  # bookkeeping beside the law
+    if o.eta and defer:  # bookkeeping, independent of the deferred branches: once per pair
         lc_e = eta_column(o) * BATCH
         lc_ex, lc_ey = pair_eta(
             (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
@@ -49,24 +49,25 @@ def lane_contact(work, lane, reach, law, o):
     lc_xiy = work[lc_in + lc_sp + BATCH] if o.friction else 0.0
     lc_xr = work[lc_in + rolling_column(o) * BATCH] if o.rolling else 0.0
     lc_hn = work[lc_in] if normal_width(o) else 0.0
-    lc_p = pair_force(
+    (lc_act, lc_fxl, lc_fyl, lc_til, lc_tjl, lc_fnl, lc_ftxl, lc_ftyl, lc_xoxl, lc_xoyl, lc_xrl,
+     lc_hnl, lc_again) = pair_force(
         (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
         (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
         (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
         (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]), (lc_xix, lc_xiy), lc_xr, lc_hn,
-        reach, law, o)
-    work[W_FX * BATCH + lane] = lc_p.fx
-    work[W_FY * BATCH + lane] = lc_p.fy
-    work[W_TI * BATCH + lane] = lc_p.tau_i
-    work[W_TJ * BATCH + lane] = lc_p.tau_j
-    work[W_FN * BATCH + lane] = lc_p.fn
-    work[W_FTX * BATCH + lane] = lc_p.ftx
-    work[W_FTY * BATCH + lane] = lc_p.fty
+        reach, law, o, defer)
+    work[W_FX * BATCH + lane] = lc_fxl
+    work[W_FY * BATCH + lane] = lc_fyl
+    work[W_TI * BATCH + lane] = lc_til
+    work[W_TJ * BATCH + lane] = lc_tjl
+    work[W_FN * BATCH + lane] = lc_fnl
+    work[W_FTX * BATCH + lane] = lc_ftxl
+    work[W_FTY * BATCH + lane] = lc_ftyl
     if o.friction:
-        work[lc_out + lc_sp] = lc_p.xix
-        work[lc_out + lc_sp + BATCH] = lc_p.xiy
+        work[lc_out + lc_sp] = lc_xoxl
+        work[lc_out + lc_sp + BATCH] = lc_xoyl
     if o.rolling:
-        work[lc_out + rolling_column(o) * BATCH] = lc_p.xr
+        work[lc_out + rolling_column(o) * BATCH] = lc_xrl
     if normal_width(o):
-        work[lc_out] = lc_p.hn
-    return lc_p.active
+        work[lc_out] = lc_hnl
+    return lc_act, lc_again

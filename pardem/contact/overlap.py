@@ -12,7 +12,7 @@ import math
 import numba as nb
 
 from ..core.jit import INLINE
-from .lanes import BATCH, W_AI, W_AJ, W_DX, W_DY, lane_contact
+from .lanes import BATCH, W_AI, W_AJ, W_DX, W_DY
 
 MAX_OVERLAP = 0.25
 """The deepest overlap the contact law is taken to represent, as a fraction of the smaller
@@ -24,19 +24,6 @@ contact chord is wider than that radius and a third disk can touch both centres'
 zone; at 50 % (equal disks) each centre lies on the other's rim and the pair is about to
 pass through. Deeper overlaps stop a run (forces.contact_forces records them, the step loop
 stops every rank) and set the speeds a scene may start with (timestep.check_free_speeds)."""
-
-
-IDLE, ACTIVE, DEEP = 0, 1, 2
-"""What ``lane_state`` finds on a lane (ForceWork.lanes, int8): no force, a force, a force and
-an overlap beyond MAX_OVERLAP (rare: the scatter then measures it, ``note_deep``)."""
-
-
-@nb.njit(**INLINE)
-def lane_state(work, ln, reach, law, o):
-    """The contact law on lane ln of the work rows (lanes.lane_contact) and the guard: IDLE,
-    ACTIVE or DEEP."""
-    ls_on = lane_contact(work, ln, reach, law, o)
-    return (DEEP if too_deep(work, ln) else ACTIVE) if ls_on else IDLE
 
 
 @nb.njit(**INLINE)
@@ -55,7 +42,7 @@ def too_deep(work, ln):
 @nb.njit(**INLINE)
 def note_deep(deep, index, delta, diameter, ring):
     """Keep the deepest overlap delta (m) beyond MAX_OVERLAP of ``diameter`` (m) in
-    ForceWork.deep: rare, so the pair loops only flag it (DEEP) and it is measured here."""
+    ForceWork.deep: rare, so the pair loops only flag it (W_ACT = 2) and it is measured here."""
     nd_ratio = delta / diameter
     if nd_ratio > MAX_OVERLAP and nd_ratio > deep[1]:
         deep[0] = index

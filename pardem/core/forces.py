@@ -19,10 +19,10 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..contact.lanes import (BATCH, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX, W_FTY, W_FX,
-                             W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, work_size)
+from ..contact.lanes import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX, W_FTY,
+                             W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, lane_contact, work_size)
 from ..contact.model import history_width
-from ..contact.overlap import DEEP, IDLE, lane_overlap, lane_state, note_deep
+from ..contact.overlap import lane_overlap, note_deep, too_deep
 from .jit import INLINE, JIT
 from .pair_select import select_pairs, zero_pairs
 from ..boundaries.ring_forces import ring_contacts
@@ -64,15 +64,12 @@ class ForceWork(NamedTuple):
     the selection is kept as indices into the list.
     deep [3] float: the deepest contact of the last call beyond MAX_OVERLAP of its smaller
     diameter: (pair index, or the particle's index for a ring surface; -1: none), the overlap
-    over that diameter, the ring (0: a pair, 1 inner, 2 outer).
-    lanes [BATCH] int8: what the law's loop found on each lane of the current batch
-    (overlap.lane_state)."""
+    over that diameter, the ring (0: a pair, 1 inner, 2 outer)."""
 
     rows: np.ndarray
     live: np.ndarray
     n_live: np.ndarray
     deep: np.ndarray
-    lanes: np.ndarray
 
 
 @nb.njit(**JIT)
@@ -83,7 +80,7 @@ def new_work(o, capacity):
     rows[rows.size - 1] = 1.0
     rows[rows.size - 2] = RECHECK
     return ForceWork(rows, np.empty((2, capacity), np.int32), np.array([-1, 0]),
-                     np.array([-1.0, 0.0, 0.0]), np.zeros(BATCH, np.int8))
+                     np.array([-1.0, 0.0, 0.0]))
 
 
 @nb.njit(**JIT)
@@ -114,18 +111,18 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
     else:
         work.n_live[0] = -1  # every pair's history written: the next selection zeroes all
         if calls >= RECHECK:
-            rows[rows.size - 1] = every_pair(ps, pairs, prm, reach, o, rotation, work, record,
-                                             True)
+            rows[rows.size - 1] = every_pair(ps, pairs, prm, reach, o, rotation, rows, record,
+                                             True, work.deep)
             rows[rows.size - 2] = 0.0
         else:
-            every_pair(ps, pairs, prm, reach, o, rotation, work, record, False)
+            every_pair(ps, pairs, prm, reach, o, rotation, rows, record, False, work.deep)
             rows[rows.size - 2] = calls + 1.0
     if walls:
         ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, work.deep)
 
 
 @nb.njit(**JIT)
-def every_pair(ps, pairs, prm, reach, o, rotation, wk, record, measure):
+def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure, deep):
     """Every listed pair through three loops per batch:
       gather   copy each pair's inputs into the work rows (unsigned indices: numba then adds
                no negative-index wrap-around, which spilled registers here);
@@ -143,9 +140,9 @@ def every_pair(ps, pairs, prm, reach, o, rotation, wk, record, measure):
     the listed pairs with a normal force (else 0): counted here rather than by a call of
     selected_pairs, which costs a dense packing more than the count (B at 2.5 s: 2-3 % of the
     step, with a selecting call every 100 and at every build), and apart from the scatter,
-    whose serial chain an added count lengthened by ~7 %. ``wk``: the ForceWork; a pair
-    overlapping beyond MAX_OVERLAP is flagged in the law's loop (``wk.lanes``) and measured
-    in the scatter (``wk.deep``)."""
+    whose serial chain an added count lengthened by ~7 %. ``deep``: ForceWork.deep, where a
+    pair overlapping beyond MAX_OVERLAP is noted (flagged in the law's loop, measured in the
+    scatter)."""
     n_hist = history_width(o)
     hw = np.uint64(n_hist)
     gx, gv, gw, ga = ps.x.reshape(-1), ps.v_pred.reshape(-1), ps.w_pred, ps.radius
@@ -155,7 +152,6 @@ def every_pair(ps, pairs, prm, reach, o, rotation, wk, record, measure):
     one = np.uint64(1)
     h_in = np.uint64(W_HIST * BATCH)
     h_out = h_in + hw * np.uint64(BATCH)
-    work, lanes, deep = wk.rows, wk.lanes, wk.deep
     n_pairs = pairs.count[0]
     n_force = 0
     for first in range(0, n_pairs, BATCH):
@@ -175,7 +171,8 @@ def every_pair(ps, pairs, prm, reach, o, rotation, wk, record, measure):
             for c in range(n_hist):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
-            lanes[ln] = lane_state(work, ln, reach, prm.law, o)
+            touching, _ = lane_contact(work, ln, reach, prm.law, o, True)  # nothing deferred
+            work[W_ACT * BATCH + ln] = (2.0 if too_deep(work, ln) else 1.0) if touching else 0.0
         if measure:
             for ln in range(m):
                 n_force += 1 if work[W_FN * BATCH + ln] != 0.0 else 0
@@ -202,9 +199,9 @@ def every_pair(ps, pairs, prm, reach, o, rotation, wk, record, measure):
                 acc_x = sf[cur + cur]
                 acc_y = sf[cur + cur + one]
                 acc_t = st[cur]
-            if lanes[ln] != IDLE:
+            if work[W_ACT * BATCH + ln] != 0.0:
                 jj = np.uint64(pj[kk])
-                if lanes[ln] == DEEP:
+                if work[W_ACT * BATCH + ln] > 1.0:
                     delta, diameter = lane_overlap(work, ln, ps.kind[ii], ps.kind[jj])
                     note_deep(deep, float(kk), delta, diameter, 0.0)
                 acc_x += work[W_FX * BATCH + ln]
@@ -242,7 +239,7 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
     h_in = np.uint64(W_HIST * BATCH)
     h_out = h_in + hw * np.uint64(BATCH)
     h = 0.5 * prm.law.dt if o.damping and o.window else 0.0
-    lanes, deep = wk.lanes, wk.deep
+    deep = wk.deep
     queue = np.empty(2 * BATCH, np.int64)  # selected pairs waiting for a batch, in list order
     keep = np.empty(BATCH, np.int64)
     n_pairs = pairs.count[0]
@@ -291,7 +288,8 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
         if m == 0:
             break
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
-            lanes[ln] = lane_state(work, ln, reach, prm.law, o)
+            touching, _ = lane_contact(work, ln, reach, prm.law, o, True)  # nothing deferred
+            work[W_ACT * BATCH + ln] = (2.0 if too_deep(work, ln) else 1.0) if touching else 0.0
         cur = np.uint64(pi[queue[0]])
         acc_x = sf[cur + cur]
         acc_y = sf[cur + cur + one]
@@ -314,9 +312,9 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
                 acc_y = sf[cur + cur + one]
                 acc_t = st[cur]
             n_force += 1 if work[W_FN * BATCH + ln] != 0.0 else 0
-            if lanes[ln] != IDLE:
+            if work[W_ACT * BATCH + ln] != 0.0:
                 jj = np.uint64(pj[kk])
-                if lanes[ln] == DEEP:
+                if work[W_ACT * BATCH + ln] > 1.0:
                     delta, diameter = lane_overlap(work, ln, ps.kind[ii], ps.kind[jj])
                     note_deep(deep, float(kk), delta, diameter, 0.0)
                 acc_x += work[W_FX * BATCH + ln]

@@ -47,14 +47,14 @@ SWEEP_WINDOW = 70_000
 def pair_loop(ps, pairs, prm, reach, o, rotation, work, dense, reps):
     for _ in range(reps):
         if dense:
-            every_pair(ps, pairs, prm, reach, o, rotation, work, False, False)
+            every_pair(ps, pairs, prm, reach, o, rotation, work.rows, False, False, work.deep)
         else:
             selected_pairs(ps, pairs, prm, reach, o, rotation, work, False)
 
 
 @nb.njit(**dict(JIT, cache=False))
 def force_fraction(ps, pairs, prm, reach, o, rotation, work):
-    return every_pair(ps, pairs, prm, reach, o, rotation, work, False, True)
+    return every_pair(ps, pairs, prm, reach, o, rotation, work.rows, False, True, work.deep)
 
 
 def window(pairs, start: int, stop: int):
