@@ -19,7 +19,8 @@ from unittest import mock
 import numpy as np
 
 from .input.schema import scene_from_dict
-from .simulation import Simulation
+from . import builder
+from .simulation import Simulation, SimulationError
 from .contact.model import contact_time
 from .core.scales import smallest_contact_time
 from .core.stability import stability_limit
@@ -155,11 +156,9 @@ def settled_kinetic_energy(scene, dt: float, spin: float = 0.0) -> float:
     frictionless packing still rearranges now and then. ``spin`` (rad/s): the spread of random
     spins given to the disks when the compression ends: without friction nothing else turns
     a disk, and a mode of the rolling springs needs a seed to grow."""
-    from . import simulation
-
     step = Fraction(repr(float(dt)))
     scene = dataclasses.replace(scene, time=dataclasses.replace(scene.time, dt=float(step)))
-    with mock.patch.object(simulation, "resolve_step", lambda _: step):
+    with mock.patch.object(builder, "resolve_step", lambda _: step):
         sim = Simulation(scene)
     ke = []
     try:
@@ -170,7 +169,7 @@ def settled_kinetic_energy(scene, dt: float, spin: float = 0.0) -> float:
         for t in SETTLE_TIMES:
             sim.run(end=t, progress=False)
             ke.append(sim.kinetic_energy())
-    except simulation.SimulationError:
+    except SimulationError:
         return math.inf
     return float(np.median(ke))
 
