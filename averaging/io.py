@@ -21,30 +21,29 @@ import numpy as np
 
 from pardem.sampling import size_of, writing
 
-from .fields import COLUMNS, FIELD_UNITS, UNITS, group_fields
+from .fields import COLUMNS, FIELD_UNITS, UNITS
 from .mesh import write_rings_vtu
 
 
 def write_rings(out_dir: Path, avg) -> None:
     """The files of a RingAverager ``avg`` into out_dir (rings.h5 through
     pardem.output.atomic: refused before h5py writes when there is no room)."""
-    f = avg.fields()
+    f, per = avg.fields_and_blocks()
     sums = np.array(avg.samples)
     with writing(out_dir / "rings.h5", size_of(f, {"sums": sums})) as tmp:
         _write_h5(tmp, avg, f, sums)
     keys = [k for k in f if np.ndim(f[k]) == 1]  # per-ring columns (fit scalars: h5 only)
     write_csv(out_dir / "rings.csv", keys, np.column_stack([f[k] for k in keys]))
-    write_csv(out_dir / "rings_blocks.csv", *block_table(avg))
+    write_csv(out_dir / "rings_blocks.csv", *block_table(avg, per))
     write_rings_vtu(out_dir / "rings.vtu", f, avg.r_in + np.arange(avg.n_rings + 1) * avg.dr)
 
 
-def block_table(avg) -> tuple[list[str], np.ndarray]:
-    """(columns, rows) of rings_blocks.csv: per block of samples (RingAverager.blocks) and
-    ring, the block's mean sample time, its first and last sample time, the ring index, and
-    every per-ring field of the block's averaged sums."""
+def block_table(avg, per: list[dict]) -> tuple[list[str], np.ndarray]:
+    """(columns, rows) of rings_blocks.csv: per block of samples (RingAverager.blocks; their
+    fields ``per``) and ring, the block's mean sample time, its first and last sample time,
+    the ring index, and every per-ring field of the block's averaged sums."""
     blocks = avg.blocks()
     args = avg.field_arguments()
-    per = group_fields(np.array(avg.samples), np.array(avg.torques), blocks, args)
     keys = ["r", "r_tilde"] + [k for k in per[0] if np.ndim(per[0][k]) == 1]
     times, n = np.array(avg.times), avg.n_rings
     rows = []

@@ -16,7 +16,8 @@ from pathlib import Path
 import h5py
 import numpy as np
 
-from .fields import FIELD_UNITS, FIELDS, group_fields
+from .fields import FIELDS, group_fields
+from .io import column_unit
 
 DESCRIPTIONS = {"r": "ring centre radius", "r_tilde": "(r - R_i) / d_ref",
                 "inner_torque": "torque of the inner ring on the particles",
@@ -61,7 +62,7 @@ def ring_dataset(run_dir: str | Path, every: int | None = None):
     ds = xr.Dataset(data, coords=coords, attrs={**layout, "source": str(path)})
     for name in list(ds.variables):
         base = str(name).removesuffix("_err")
-        unit = "s" if name == "time" else FIELD_UNITS.get(base, "1" if name == "ring" else "")
+        unit = column_unit(str(name))
         what = DESCRIPTIONS.get(base, "ring index")
         ds[name].attrs.update(unit=unit, description=what if base == name else
                               f"standard error of {base} (block averages)")

@@ -84,6 +84,10 @@ class RingAverager:
         fields are formed from its averaged sums, and err = std(blocks) / sqrt(n_blocks).
         Consecutive samples are correlated, so the spread of single samples would understate
         the error; blocks longer than the correlation time do not."""
+        return self.fields_and_blocks()[0]
+
+    def fields_and_blocks(self) -> tuple[dict[str, np.ndarray], list[dict[str, np.ndarray]]]:
+        """``fields()`` and the fields of each block (``blocks``) its errors come from."""
         if not self.samples:
             raise ValueError("no samples taken")
         stack, torques = np.array(self.samples), np.array(self.torques)
@@ -95,7 +99,7 @@ class RingAverager:
             out[key] = value
             if len(per) > 1:
                 out[key + "_err"] = block_error(np.array([p[key] for p in per]))
-        return out
+        return out, per
 
     def write(self, out_dir: str | Path) -> None:
         """rings.h5 (fields, errors, raw sums per sample), rings.csv and rings.vtu; atomic."""
