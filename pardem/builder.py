@@ -26,6 +26,7 @@ import numpy as np
 from .compile_ahead import compile_ahead, compile_first
 from .contact.history import live_history, tracks_eta
 from .contact.model import history_columns, law_params, options_for
+from .contact.pairs import pair_table
 from .core.memory import prepare_memory, reuse_freed_arrays
 from .core.neighbors import WALL_SKINS
 from .core.rebuild import Rebuilder
@@ -56,7 +57,7 @@ class SimulationBuilder:
         self.dt = float(self.step_length)
         e, g = scene.effects, scene.geometry
         self.contact = options_for(e, scene.time.integrator, tracks_eta(scene, out_dir is not None),
-                                   scene.contact.normal)
+                                   scene.contact.normal, bool(scene.pairs))
         self.history_columns = history_columns(self.contact)
         self.hist = len(self.history_columns)
         self.options = StepOptions(self.contact, e.rotation, e.bottom_friction,
@@ -71,8 +72,8 @@ class SimulationBuilder:
         inner, outer = (g is not None and wall_layout(g, ring).count > 0
                         for ring in ("inner", "outer"))
         walled = inner or outer
-        self.prm = Params(law_params(c, self.dt), rings_of(g), self.dt, skin,
-                          c.mu_bottom * c.gravity, math.inf,
+        self.prm = Params(law_params(c, self.dt), rings_of(g), pair_table(scene, self.dt),
+                          self.dt, skin, c.mu_bottom * c.gravity, math.inf,
                           wall_skin=WALL_SKINS * skin if walled else 0.0,
                           inner_disks=inner, wall_disks=walled)
         prepare_memory(scene, comm)

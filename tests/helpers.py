@@ -5,7 +5,10 @@ from __future__ import annotations
 import math
 import time
 
+import numpy as np
+
 from pardem.input.schema import scene_from_dict
+from pardem.simulation import Simulation
 from pardem.testing import dense_packing  # noqa: F401 (re-exported for the tests)
 
 D_SMALL, M_SMALL = 7.42e-3, 0.275e-3
@@ -73,3 +76,32 @@ def analytic_collision(m_red: float, k_n: float = K_N, gamma_n: float = GAMMA_N)
     eta = gamma_n / (2 * m_red)
     w = math.sqrt(k_n / m_red - eta**2)
     return math.pi / w, math.exp(-math.pi * eta / w)
+
+
+def wall_setup(target: str, dt="auto", contact=None):
+    """One small disk moving radially into the inner ring: between two wall disks (flat ring
+    surface) or straight at a wall disk. Ring at rest, no compression; ``contact``: the
+    [contact] table (default: the paper's law). Returns ``(sim, overlap(sim),
+    approach_speed(sim))``."""
+    spacing = 0.05  # few wall disks, so the flat surface between them is wide
+    sc = couette_scene(counts=(1, 0), geometry={"omega_inner": 0.0, "compression_time": 0.0,
+                                                "outer_start_radius": 0.2525,
+                                                "wall_particle_spacing": spacing},
+                       effects={"tangential_friction": False, "bottom_friction": False},
+                       time={"dt": dt}, contact=contact)
+    sim = Simulation(sc)
+    a, r_in, aw = D_SMALL / 2, 0.1035, 1.25e-3
+    kind = sim.gathered("kind")["kind"]
+    phi = math.pi / np.sum(kind == 1) if target == "flat" else 0.0
+    r0 = r_in + a + 1e-4 + (aw if target == "disk" else 0.0)
+    e_r = np.array([math.cos(phi), math.sin(phi)])
+    sim.set_particles(0, position=r0 * e_r, velocity=-0.05 * e_r)
+    wall = np.nonzero(kind == 1)[0][0]
+
+    def overlap(s):
+        x = s.gathered("position")["position"]
+        if target == "flat":
+            return a - (np.hypot(*x[0]) - r_in)
+        return a + aw - np.hypot(*(x[0] - x[wall]))
+
+    return sim, overlap, lambda s: -(s.gathered("velocity")["velocity"][0] @ e_r)

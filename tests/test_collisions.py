@@ -5,10 +5,9 @@ import math
 
 import numpy as np
 import pytest
-from helpers import D_LARGE, D_SMALL, GAMMA_N, K_N, M_LARGE, M_SMALL, analytic_collision, \
-    couette_scene
+from helpers import (D_LARGE, D_SMALL, GAMMA_N, K_N, M_LARGE, M_SMALL, analytic_collision,
+                     wall_setup)
 
-from pardem.simulation import Simulation
 from pardem.testing import measure, two_disks
 
 
@@ -69,33 +68,6 @@ def test_halfstep_integrator_converges_to_analytic():
         print(f"  {n:5d}  {et:9.2e}  {ee:9.2e}")
     assert rows[-1][1] < 1e-3 and rows[-1][2] < 2e-3
     assert rows[1][2] < rows[0][2] / 4 and rows[2][2] < rows[1][2] / 4  # at least first order
-
-
-def wall_setup(target: str, dt="auto"):
-    """One small disk moving radially into the inner ring: between two wall disks (flat ring
-    surface) or straight at a wall disk. Ring at rest, no compression."""
-    spacing = 0.05  # few wall disks, so the flat surface between them is wide
-    sc = couette_scene(counts=(1, 0), geometry={"omega_inner": 0.0, "compression_time": 0.0,
-                                                "outer_start_radius": 0.2525,
-                                                "wall_particle_spacing": spacing},
-                       effects={"tangential_friction": False, "bottom_friction": False},
-                       time={"dt": dt})
-    sim = Simulation(sc)
-    a, r_in, aw = D_SMALL / 2, 0.1035, 1.25e-3
-    kind = sim.gathered("kind")["kind"]
-    phi = math.pi / np.sum(kind == 1) if target == "flat" else 0.0
-    r0 = r_in + a + 1e-4 + (aw if target == "disk" else 0.0)
-    e_r = np.array([math.cos(phi), math.sin(phi)])
-    sim.set_particles(0, position=r0 * e_r, velocity=-0.05 * e_r)
-    wall = np.nonzero(kind == 1)[0][0]
-
-    def overlap(s):
-        x = s.gathered("position")["position"]
-        if target == "flat":
-            return a - (np.hypot(*x[0]) - r_in)
-        return a + aw - np.hypot(*(x[0] - x[wall]))
-
-    return sim, overlap, lambda s: -(s.gathered("velocity")["velocity"][0] @ e_r)
 
 
 @pytest.mark.parametrize("target", ["flat", "disk"])

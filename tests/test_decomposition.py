@@ -266,11 +266,13 @@ def test_owned_rows_moved_in_place_equal_the_sorted_union(seed):
     ps.gid[:n] = np.sort(pool[:n])
     ps.gid[n:] = -1
     ps.kind[:] = rng.integers(FREE, 3, cap)
+    ps.species[:] = rng.integers(0, 4, cap)
     kept = np.sort(rng.choice(n, int(n * rng.uniform(0.5, 1.0)), replace=False))
     n_arr = int(rng.integers(0, 200))
     arrivals = rng.normal(size=(n_arr, row_width(hist)))
     arrivals[:, row_columns(hist)["gid"]] = pool[n:n + n_arr, None]
     arrivals[:, row_columns(hist)["kind"]] = rng.integers(FREE, 3, (n_arr, 1))
+    arrivals[:, row_columns(hist)["species"]] = rng.integers(0, 4, (n_arr, 1))
     senders = np.sort(rng.choice(np.arange(1, n_arr), min(2, max(n_arr - 1, 0)), replace=False))
     for part in np.split(np.arange(n_arr), senders):  # each sender's arrivals ascend
         arrivals[part] = arrivals[part[np.argsort(arrivals[part, 0])]]

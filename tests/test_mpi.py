@@ -29,6 +29,28 @@ def fast_shear_scene(tmp_path, name="fast", output=None, averaging=None, **geome
     return path
 
 
+@pytest.mark.timeout(1800)
+def test_pair_tables_are_bitwise_identical_on_1_and_2_ranks_and_change_the_run(tmp_path):
+    """Pair laws for small-large, small-inner_ring and large-outer_ring: the partner numbers
+    travel with migrants and ghosts, so 2 ranks give 1 rank's bits; the same cell without the
+    tables ends elsewhere."""
+    pairs = [{"species": ["small", "large"], "k_n": 700.0, "mu": 0.2},
+             {"species": ["small", "inner_ring"], "mu": 0.8, "gamma_n": 0.3},
+             {"species": ["large", "outer_ring"], "k_n": 500.0}]
+    g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
+         "compression_time": 0.1, "omega_inner": 10.0}
+    path = tmp_path / "pairs.toml"
+    write_scene(couette_scene(counts=(260, 40), geometry=g, name="pairs",
+                              contact={"pair": pairs}), path)
+    steps = 8_000
+    ref = dump_state(path, steps, tmp_path / "r1.npz", 1)
+    got = dump_state(path, steps, tmp_path / "r2.npz", 2)
+    assert got["migrated"] >= 5
+    assert_same_state(ref, got, "2 ranks vs 1, with pair tables")
+    plain = dump_state(fast_shear_scene(tmp_path), steps, tmp_path / "plain.npz", 1)
+    assert not np.array_equal(plain["x"], ref["x"])
+
+
 @pytest.mark.slow
 @pytest.mark.timeout(2400)
 def test_couette_quick_is_bitwise_identical_on_1_2_3_4_ranks(tmp_path):

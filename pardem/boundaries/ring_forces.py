@@ -10,6 +10,7 @@ import numba as nb
 from ..contact.model import history_width, surface_contact
 from ..contact.overlap import MAX_OVERLAP
 from ..contact.overlap import note_deep
+from ..contact.pairs import pair_law, ring_partner
 from ..core.jit import JIT
 from .walls import outer_radius, ring_surface
 
@@ -41,7 +42,8 @@ def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, deep):
         s = (a * ps.w_pred[i] if rotation else 0.0) + s_j
         fn, ftx, fty, torque = surface_contact(
             (nx, ny), delta, a, (ps.v_pred[i, 0] - vjx + s * ny, ps.v_pred[i, 1] - vjy - s * nx),
-            (w_i, w_j), ps.hist_wall, i, prm.law, o)
+            (w_i, w_j), ps.hist_wall, i,
+            pair_law(prm.pair_law, ps.species[i], ring_partner(prm.pair_law, ring), prm.law, o), o)
         if record:
             pairs.wall_fn[q] = fn
             pairs.wall_ft[q, 0] = ftx

@@ -2,7 +2,10 @@
 (inputs, outputs, history in and out), and ``lane_contact``, the contact law on one lane.
 
 Stage: force kernels (inlined into forces.py's loops). Laying a batch out by rows keeps each
-input of 64 pairs in one cache line run, so that the law's loop over lanes vectorises.
+input of 64 pairs in one cache line run, so that the law's loop over lanes vectorises. With
+parameters per pair of species (``ContactOptions.pairs``) the gather also copies each pair's
+law into rows of its own (``gather_law``), which the law reads at unit stride like its other
+inputs (``lane_law``); without, those rows do not exist.
 """
 
 from __future__ import annotations
@@ -10,21 +13,48 @@ from __future__ import annotations
 import numba as nb
 
 from ..core.jit import INLINE
-from .model import eta_column, history_width, pair_eta, pair_force, rolling_column, spring_column
+from .model import LAW_COLUMNS, LawParams, eta_column, history_width, pair_eta, pair_force, rolling_column, spring_column
 from .normal import normal_width
 
 
 BATCH = 64  # pairs per batch of the force loop: its work rows stay in L1
 # Rows of the work array (each BATCH lanes): the inputs gathered per pair, the outputs, then
-# the history: W_HIST + c in, W_HIST + width + c out.
+# the history: W_HIST + c in, W_HIST + width + c out; then, with pair laws, LAW_COLUMNS rows
+# from law_row.
 (W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_ACT, W_FX, W_FY, W_TI, W_TJ, W_FN, W_FTX,
  W_FTY, W_HIST) = range(17)
 
 
 @nb.njit(**INLINE)
+def law_row(o):
+    """The first row of a lane's pair law (with ``o.pairs``)."""
+    return W_HIST + 2 * history_width(o)
+
+
+@nb.njit(**INLINE)
 def work_size(o):
     """The force loop's work rows, then two elements for forces.contact_forces' choice."""
-    return (W_HIST + 2 * history_width(o)) * BATCH + 2
+    return (law_row(o) + (len(LAW_COLUMNS) if o.pairs else 0)) * BATCH + 2
+
+
+@nb.njit(**INLINE)
+def gather_law(work, lane, table, p, q, o):
+    """Row (p, q) of the pair laws (Params.pair_law) into lane's law rows."""
+    gl_r = law_row(o) * BATCH + lane
+    for gl_c in range(len(LAW_COLUMNS)):
+        work[gl_r + gl_c * BATCH] = table[p, q, gl_c]
+
+
+@nb.njit(**INLINE)
+def lane_law(work, lane, law, o):
+    """The LawParams of lane's pair: its law rows with ``law``'s dt, or ``law`` itself without
+    pair laws."""
+    if not o.pairs:
+        return law
+    ll_r = law_row(o) * BATCH + lane
+    return LawParams(law.dt, work[ll_r], work[ll_r + BATCH], work[ll_r + 2 * BATCH],
+                     work[ll_r + 3 * BATCH], work[ll_r + 4 * BATCH], work[ll_r + 5 * BATCH],
+                     work[ll_r + 6 * BATCH], work[ll_r + 7 * BATCH], work[ll_r + 8 * BATCH])
 
 
 @nb.njit(**INLINE)
@@ -55,7 +85,7 @@ def lane_contact(work, lane, reach, law, o, defer):
         (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
         (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
         (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]), (lc_xix, lc_xiy), lc_xr, lc_hn,
-        reach, law, o, defer)
+        reach, lane_law(work, lane, law, o), o, defer)
     work[W_FX * BATCH + lane] = lc_fxl
     work[W_FY * BATCH + lane] = lc_fyl
     work[W_TI * BATCH + lane] = lc_til

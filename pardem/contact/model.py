@@ -19,6 +19,8 @@ contact and no history column. Slots:
                 a' = a_i a_j / (a_i + a_j) (a_i against a ring surface)
     eta         bookkeeping: the paper's total tangential displacement eta (eq. 1.3), the
                 spring's arithmetic without the cap; no force reads it
+    pairs       the parameters (LawParams) per pair of species instead of one set
+                (pairs.py); off without [[contact.pair]] tables
 
 History columns per contact, in this order (``history_columns``): the normal law's (its
 descriptor's ``history``), the spring (2, with friction), the rolling spring (1, with rolling),
@@ -55,6 +57,7 @@ class ContactOptions:
     rolling: bool = False
     eta: bool = False
     normal: int = 0  # the normal law's NormalLaw.code (0: linear)
+    pairs: bool = False  # parameters per pair of species (contact/pairs.py)
 
 
 class LawParams(NamedTuple):
@@ -74,13 +77,19 @@ class LawParams(NamedTuple):
     k_adhesion: float = 0.0
 
 
-def options_for(effects, integrator: str, eta: bool, normal: str = "linear") -> ContactOptions:
-    """The options of a scene's [effects] table, [time] integrator and [contact] normal."""
+LAW_COLUMNS = LawParams._fields[1:]
+"""What may differ from pair to pair: every parameter but dt (contact/pairs.py)."""
+
+
+def options_for(effects, integrator: str, eta: bool, normal: str = "linear",
+                pairs: bool = False) -> ContactOptions:
+    """The options of a scene's [effects] table, [time] integrator, [contact] normal and
+    whether it gives pair tables."""
     return ContactOptions(
         damping=effects.normal_damping, friction=effects.tangential_friction,
         clip=effects.clip_attractive_normal, window=integrator == "verlet",
         tangential_damping=effects.tangential_damping, rolling=effects.rolling_resistance,
-        eta=eta, normal=LAWS[normal].code)
+        eta=eta, normal=LAWS[normal].code, pairs=pairs)
 
 
 def law_params(contact, dt: float) -> LawParams:

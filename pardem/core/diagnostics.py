@@ -14,7 +14,8 @@ import math
 import numba as nb
 import numpy as np
 
-from ..contact.model import elastic_energy, history_columns
+from ..contact.model import LAW_COLUMNS, elastic_energy, history_columns
+from ..contact.pairs import pair_law, ring_partner
 from .jit import JIT
 from ..boundaries.walls import ring_surface
 
@@ -50,7 +51,8 @@ def elastic_energy_pairs(ps, pairs, prm, o, n_own):
         if pairs.i[k] < n_own:
             ai, aj = ps.radius[pairs.i[k]], ps.radius[pairs.j[k]]
             e += elastic_energy(pair_overlap(ps, pairs.i[k], pairs.j[k]), ai * aj / (ai + aj),
-                                pairs.hist, k, prm.law, o)
+                                pairs.hist, k, pair_law(prm.pair_law, ps.species[pairs.i[k]],
+                                                        ps.species[pairs.j[k]], prm.law, o), o)
     return e
 
 
@@ -61,9 +63,10 @@ def elastic_energy_rings(ps, pairs, prm, o, r_out):
     e = 0.0
     for q in range(pairs.wall_count[0]):
         i = pairs.wall[q]
-        delta = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0, r_out, 0.0,
-                             prm.rings)[3]
-        e += elastic_energy(delta, ps.radius[i], ps.hist_wall, i, prm.law, o)
+        ring, _, _, delta, _, _, _, _ = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0,
+                                                     r_out, 0.0, prm.rings)
+        law = pair_law(prm.pair_law, ps.species[i], ring_partner(prm.pair_law, ring), prm.law, o)
+        e += elastic_energy(delta, ps.radius[i], ps.hist_wall, i, law, o)
     return e
 
 
@@ -137,9 +140,10 @@ def _history(table: dict, hist: np.ndarray, o) -> None:
         table["rolling"] = hist[:, col["rolling"]].copy()
 
 
-def mobilisation(normal_force: np.ndarray, tangential_force: np.ndarray, mu: float,
+def mobilisation(normal_force: np.ndarray, tangential_force: np.ndarray, mu,
                  friction: bool) -> np.ndarray:
-    """|f_t| / (mu |f_n|): 1 at the Coulomb limit (0 without friction; 1 where f_n = 0)."""
+    """|f_t| / (mu |f_n|): 1 at the Coulomb limit (0 without friction; 1 where f_n = 0); mu
+    one coefficient or one per contact."""
     if not friction:
         return np.zeros_like(normal_force)
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -161,7 +165,9 @@ def contact_table(ps, pairs, prm, o, n_own: int, local_index: bool = False
     d = ps.x[i] - ps.x[j]
     dist = np.hypot(d[:, 0], d[:, 1])
     fn, ft = pairs.fn[k], pairs.ft[k]
-    mobilised = mobilisation(fn, ft, prm.law.mu, o.friction)
+    mu = (prm.pair_law[ps.species[i], ps.species[j], LAW_COLUMNS.index("mu")] if o.pairs
+          else prm.law.mu)
+    mobilised = mobilisation(fn, ft, mu, o.friction)
     table = {"ids": np.column_stack([ps.gid[i], ps.gid[j]]), "normal": d / dist[:, None],
              "overlap": ps.radius[i] + ps.radius[j] - dist, "normal_force": fn.copy(),
              "tangential_force": ft.copy(), "mobilised": mobilised,

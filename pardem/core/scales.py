@@ -10,6 +10,7 @@ import numpy as np
 
 from ..contact import model
 from ..contact.normal import law_of
+from ..contact.pairs import harmonic, own_contacts, pair_contacts, species_count
 from ..input.scene import Scene, SceneError
 
 
@@ -45,21 +46,61 @@ def smallest_reduced_mass(scene: Scene) -> float:
     return float(a * b / (a + b))
 
 
-def normal_stiffness(scene: Scene) -> tuple[float, float, float]:
-    """(k_load, k_elastic, k_t) N/m: the linear stiffnesses of the scene's contact law at its
-    reference overlap of the largest free disk (contact.normal.NormalLaw.stiffness; k_n, k_n,
-    k_t for the linear law). k_load sets how deep an impact goes, k_elastic (the stiffer,
-    reversible branch) the contact time, the stable step and the averaging's k'_n."""
-    c = scene.contact
+def normal_stiffness(scene: Scene, c=None) -> tuple[float, float, float]:
+    """(k_load, k_elastic, k_t) N/m: the linear stiffnesses of the scene's contact law (or of
+    the [contact] table ``c``, a pair's: contact.pairs.contact_laws) at its reference overlap
+    of the largest free disk (contact.normal.NormalLaw.stiffness; k_n, k_n, k_t for the
+    linear law). k_load sets how deep an impact goes, k_elastic (the stiffer, reversible
+    branch) the contact time and the stable step; the averaging's k'_n is the [contact]
+    law's k_elastic, whatever the pair tables say."""
+    c = scene.contact if c is None else c
     return law_of(c).stiffness(c, max(d for d, _ in free_disks(scene)))
 
 
 def smallest_contact_time(scene: Scene) -> float:
-    """t_c (s) of the pair with the smallest reduced mass; gamma_n counts only if the scene
-    switches normal damping on."""
-    c = scene.contact
-    gamma = c.gamma_n if scene.effects.normal_damping else 0.0
-    return contact_time(normal_stiffness(scene)[1], gamma, smallest_reduced_mass(scene))
+    """t_c (s) of the pair with the smallest reduced mass under the [contact] law, or of any
+    pair of partners if shorter (its table's law, or its mixed law: contact/pairs.py; with its
+    own reduced mass, a ring infinitely massive); gamma_n counts only if the scene switches
+    normal damping on."""
+    damped = scene.effects.normal_damping
+    t_c = contact_time(normal_stiffness(scene)[1], scene.contact.gamma_n if damped else 0.0,
+                       smallest_reduced_mass(scene))
+    if not scene.pairs:
+        return t_c
+    given, own = dict(pair_contacts(scene)), own_contacts(scene)
+    for p in range(len(own)):
+        for q in range(p, len(own)):
+            m_red = pair_reduced_mass(scene, p, q)
+            if m_red is None:
+                continue
+            if (p, q) in given:
+                k, gamma = normal_stiffness(scene, given[p, q])[1], given[p, q].gamma_n
+            else:  # the mixed law's stiffness at the reference overlap mixes alike
+                k = harmonic(normal_stiffness(scene, own[p])[1],
+                             normal_stiffness(scene, own[q])[1])
+                gamma = harmonic(own[p].gamma_n, own[q].gamma_n)
+            t_c = min(t_c, contact_time(k, gamma if damped else 0.0, m_red))
+    return t_c
+
+
+def pair_reduced_mass(scene: Scene, p: int, q: int) -> float | None:
+    """The smallest reduced mass (kg) of a contact between partners p <= q (contact/pairs.py;
+    a ring is infinitely massive), None if the scene has no such contact."""
+    if scene.particles is not None:  # partners past the species: file wall disks, fixed
+        s, m = np.asarray(scene.particles.species), np.asarray(scene.particles.mass)
+        lightest = [np.sort(m[s == k])[:2] if k < species_count(scene) else None
+                    for k in (p, q)]
+    else:
+        lightest = [np.full(min(scene.species[k].count, 2), scene.species[k].mass)
+                    if k < len(scene.species) else None for k in (p, q)]
+    a, b = lightest
+    if a is None:  # two rings never touch
+        return None
+    if b is None:  # a ring
+        return float(a[0]) if a.size else None
+    if p == q:
+        return float(a[0] * a[1] / (a[0] + a[1])) if a.size == 2 else None
+    return float(a[0] * b[0] / (a[0] + b[0])) if a.size and b.size else None
 
 
 def free_disks(scene: Scene) -> list[tuple[float, float]]:

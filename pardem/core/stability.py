@@ -11,6 +11,7 @@ import math
 
 import numpy as np
 
+from ..contact.pairs import contact_laws
 from .scales import normal_stiffness, smallest_contact_time, smallest_reduced_mass
 from ..input.scene import Scene
 
@@ -85,18 +86,22 @@ def contact_modes(scene: Scene) -> list[tuple[str, float]]:
                   most its pair's k_r a'^2 (1/I_i + 1/I_j) to a disk, six of them; a contact
                   with a flat ring surface adds 2 k_r/m_i (a' = a_i, the ring does not turn)
                   and leaves room for four neighbours.
+    With pair tables each stiffness and damping is the largest of the laws in use, with the
+    lightest pair's m_red: a bound for any mix of pairs.
     """
-    c, e = scene.contact, scene.effects
+    e = scene.effects
     m_red = smallest_reduced_mass(scene)
     t_c = smallest_contact_time(scene)
     z = PACKING_CONTACTS
     modes = [(f"a collision's resolution, {STEPS_PER_CONTACT:g} steps per contact time t_c",
               t_c / STEPS_PER_CONTACT)]
-    k_n, k_t = normal_stiffness(scene)[1:]
-    friction = e.tangential_friction and k_t > 0 and c.mu > 0  # mu = 0: it never sticks
-    gamma_t = c.gamma_t if friction and e.tangential_damping else 0.0
-    gamma_n = c.gamma_n if e.normal_damping else 0.0
-    k_t = k_t if friction else 0.0
+    laws = [(x, *normal_stiffness(scene, x)[1:]) for x in contact_laws(scene)]
+    k_n = max(k for _, k, _ in laws)  # the stiffest of each: a bound for any mix of pairs
+    sticking = [(x, k) for x, _, k in laws if k > 0 and x.mu > 0]  # mu = 0: it never sticks
+    friction = e.tangential_friction and bool(sticking)
+    gamma_t = max(x.gamma_t for x, _ in sticking) if friction and e.tangential_damping else 0.0
+    gamma_n = max(x.gamma_n for x, _, _ in laws) if e.normal_damping else 0.0
+    k_t = max(k for _, k in sticking) if friction else 0.0
     damp = z / 2 * (gamma_n + gamma_t) / m_red
     what = "the densest packing's translation, omega^2 = 3 k_n/m_red"
     what += " + 3 k_t/m_red (explicit spring)" if friction else ""
@@ -106,14 +111,15 @@ def contact_modes(scene: Scene) -> list[tuple[str, float]]:
         modes.append(("the densest packing's disks turning alike (gears), omega^2 = 12 k_t/m_red"
                       " (explicit spring)",
                       mode_step_limit(0.0, 2 * z * k_t / m_red, 2 * z * gamma_t / m_red)))
-    if e.rolling_resistance and e.rotation and c.k_r > 0:
+    k_r = max(x.k_r for x, _, _ in laws)
+    if e.rolling_resistance and e.rotation and k_r > 0:
         kinds = _pair_kinds(scene)
         pair = _rolling_pair(scene, kinds)
         w2 = z * pair
         if scene.geometry is not None:  # a disk on a ring surface, four neighbours beside it
             w2 = max(w2, 2.0 / min(m for _, m, _ in kinds) + (z - 2) * pair)
         modes.append(("the rolling spring, omega^2 = 6 k_r a'^2 (1/I_i + 1/I_j) (explicit "
-                      "spring)", mode_step_limit(0.0, c.k_r * w2, 0.0)))
+                      "spring)", mode_step_limit(0.0, k_r * w2, 0.0)))
     return modes
 
 

@@ -42,6 +42,9 @@ class Particles(NamedTuple):
     """Per-particle arrays, length n (capacity). Shapes in brackets, units in parentheses.
 
     gid [n] int64: global id. kind [n] int8: FREE / INNER_WALL / OUTER_WALL / FIXED_WALL.
+    species [n] int8: the partner number of its contacts' pair laws (contact/pairs.py: a free
+    disk's species, S or S + 1 for the inner or outer ring's wall disks, S for wall disks
+    from a file).
     x [n,2] (m), v [n,2] (m/s), theta [n] (rad), omega [n] (rad/s, counter-clockwise positive).
     f [n,2] (N) and tau [n] (N m): the force and torque of the current positions.
     radius [n] (m), mass [n] (kg), inv_mass [n] (1/kg), inv_inertia [n] (1/(kg m^2)):
@@ -58,6 +61,7 @@ class Particles(NamedTuple):
 
     gid: np.ndarray
     kind: np.ndarray
+    species: np.ndarray
     x: np.ndarray
     v: np.ndarray
     theta: np.ndarray
@@ -100,10 +104,11 @@ class Pairs(NamedTuple):
 
 class Params(NamedTuple):
     """Parameters of a run: ``law`` (contact.model.LawParams: the material), ``rings``
-    (walls.Rings: the geometry and motion of the rings), and the run's own: dt (s), skin (m,
-    Verlet skin), mu_b_g = mu_bottom g (m/s^2, bottom friction), escape_radius (m: a particle
-    farther than this from the axis is an error; free scenes: inf; Couette scenes check
-    against the rings' current radii instead), wall_skin (m: the extra skin of a free disk's
+    (walls.Rings: the geometry and motion of the rings), ``pair_law`` (the laws per pair of
+    partners, contact.pairs.pair_table; empty without pair tables), and the run's own: dt
+    (s), skin (m, Verlet skin), mu_b_g = mu_bottom g (m/s^2, bottom friction),
+    escape_radius (m: a particle farther than this from the axis is an error; free scenes:
+    inf; Couette scenes check against the rings' current radii instead), wall_skin (m: the extra skin of a free disk's
     pairs with wall disks, whose prescribed motion then does not force a build every skin/2;
     set at each build, ``neighbors.next_wall_skin``), inner_disks (the inner ring carries
     wall disks), wall_disks (either ring does: wall disks that move, whose travel the lists
@@ -111,6 +116,7 @@ class Params(NamedTuple):
 
     law: LawParams
     rings: Rings
+    pair_law: np.ndarray
     dt: float
     skin: float
     mu_b_g: float
@@ -163,7 +169,8 @@ def new_particles(n: int, hist: int) -> Particles:
     """Zeroed particle arrays for n particles with ``hist`` history columns (0: none)."""
     z = np.zeros
     return Particles(
-        gid=z(n, np.int64), kind=z(n, np.int8), x=z((n, 2)), v=z((n, 2)), theta=z(n),
+        gid=z(n, np.int64), kind=z(n, np.int8), species=z(n, np.int8), x=z((n, 2)),
+        v=z((n, 2)), theta=z(n),
         omega=z(n), f=z((n, 2)), tau=z(n), radius=z(n), mass=z(n), inv_mass=z(n),
         inv_inertia=z(n), phi0=z(n), e0=z((n, 2)), v_pred=z((n, 2)), w_pred=z(n),
         x_ref=z((n, 2)), hist_wall=z((n if hist else 0, max(hist, 2))),

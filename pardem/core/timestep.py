@@ -19,6 +19,7 @@ from fractions import Fraction
 import numpy as np
 
 from ..contact.overlap import MAX_OVERLAP
+from ..contact.pairs import contact_laws
 from .scales import free_disks, normal_stiffness, smallest_contact_time, smallest_reduced_mass
 from ..input.scene import Scene, SceneError
 from .stability import stability_limit
@@ -36,7 +37,7 @@ def check_wall_speeds(scene: Scene) -> None:
     g = scene.geometry
     if g is None:
         return
-    k_load = normal_stiffness(scene)[0]
+    k_load = softest_load(scene)
     worst = max(math.sqrt(m / k_load) / d for d, m in free_disks(scene))  # s/m
     limit = MAX_IMPACT_OVERLAP / worst  # m/s
     gap = g.outer_start_radius - g.outer_radius
@@ -59,6 +60,12 @@ def check_wall_speeds(scene: Scene) -> None:
                 f"{100 * v * worst:.0f} % of its diameter, beyond the "
                 f"{100 * MAX_IMPACT_OVERLAP:.0f} % the contact model resolves; use {rule} "
                 f"{bound:.4g} {unit}, or a stiffer k_n")
+
+
+def softest_load(scene: Scene) -> float:
+    """k_load (N/m) of the softest contact law of the scene (the [contact] law's, or a pair
+    table's if softer): the deepest impact at a given speed."""
+    return min(normal_stiffness(scene, c)[0] for c in contact_laws(scene))
 
 
 def _free_kinds(p) -> tuple[np.ndarray, np.ndarray]:
@@ -90,9 +97,9 @@ def approach_speed_limit(scene: Scene, dt: float) -> float:
     than 64 kinds a cruder bound: m_red <= m of either disk, min(d) = one of the two
     diameters, no damping."""
     d, m = _free_kinds(scene.particles)
-    c = scene.contact
-    gamma = c.gamma_n if scene.effects.normal_damping else 0.0
-    k_load = normal_stiffness(scene)[0]
+    laws = contact_laws(scene)
+    gamma = min(c.gamma_n for c in laws) if scene.effects.normal_damping else 0.0
+    k_load = softest_load(scene)
     if d.size > 64:
         worst = np.max((np.sqrt(m / k_load) + dt) / d)
     else:

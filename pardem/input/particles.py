@@ -12,10 +12,10 @@ from typing import Any
 
 import numpy as np
 
-from .scene import _PCOLS, _PUNITS, FreeParticles, SceneError
+from .scene import _PCOLS, _PUNITS, MAX_SPECIES, FreeParticles, SceneError
 from .values import FLOAT, REQ, fail, show, value
 
-_PDEFAULT = {"vx": 0.0, "vy": 0.0, "omega": 0.0}
+_PDEFAULT = {"vx": 0.0, "vy": 0.0, "omega": 0.0, "species": 0.0}
 
 def particles_from_tables(rows: list[Any]) -> dict[str, np.ndarray]:
     """Columns from ``[[particles]]`` tables; vectorised type checks keep 1e5 rows fast."""
@@ -128,9 +128,13 @@ def check_particles(cols: dict[str, np.ndarray], where: str) -> FreeParticles:
         bad = ~np.isfinite(cols[k])
         if k in ("diameter", "mass"):
             bad |= ~(cols[k] > 0)
+        if k == "species":
+            bad |= ~((cols[k] >= 0) & (cols[k] < MAX_SPECIES) & (cols[k] == np.round(cols[k])))
         if bad.any():
             i = int(np.argmax(bad))
-            why = "must be > 0" if k in ("diameter", "mass") else "must be finite"
+            why = ("must be > 0" if k in ("diameter", "mass") else
+                   f"must be an integer 0 .. {MAX_SPECIES - 1}" if k == "species" else
+                   "must be finite")
             raise fail(f"{where} #{i}", k, cols[k][i], why, _PUNITS[k])
     x, y, d = cols["x"], cols["y"], cols["diameter"]
     pair = _worst_pair(x, y, d)

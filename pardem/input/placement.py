@@ -19,13 +19,16 @@ import numpy as np
 
 from .scene import Scene, SceneError
 from ..boundaries.registry import glued_disks
-from ..core.state import FREE, ROW_ROOM, Particles, new_particles
+from ..contact.pairs import species_count
+from ..core.state import FREE, OUTER_WALL, ROW_ROOM, Particles, new_particles
 from ..boundaries.walls import wall_layout
 
 
 class Initial(NamedTuple):
     """Arrays by gid: x [n,2] (m), v [n,2] (m/s), omega [n] (rad/s), radius [n] (m), mass [n]
-    (kg, inf for wall disks), kind [n], phi0 [n] (rad); n_free."""
+    (kg, inf for wall disks), kind [n], phi0 [n] (rad), species [n] (partner numbers,
+    contact/pairs.py: wall disks from a file take S, the [contact] law with every partner);
+    n_free."""
 
     x: np.ndarray
     v: np.ndarray
@@ -34,6 +37,7 @@ class Initial(NamedTuple):
     mass: np.ndarray
     kind: np.ndarray
     phi0: np.ndarray
+    species: np.ndarray
     n_free: int
 
 
@@ -44,21 +48,24 @@ def initial_configuration(scene: Scene) -> Initial:
         p = scene.particles
         x, v, omega = np.column_stack([p.x, p.y]), np.column_stack([p.vx, p.vy]), p.omega
         radius, mass = 0.5 * np.asarray(p.diameter, float), p.mass
+        labels = p.species
     else:
-        x, radius, mass = _couette(scene)
+        x, radius, mass, labels = _couette(scene)
         v, omega = np.zeros_like(x), np.zeros(radius.size)
     n, w = radius.size, glued_disks(scene)
-    k = w.radius.size
+    k, s = w.radius.size, species_count(scene)
     return Initial(np.vstack([x, w.x]), np.vstack([v, np.zeros((k, 2))]),
                    np.concatenate([omega, np.zeros(k)]), np.concatenate([radius, w.radius]),
                    np.concatenate([mass, np.full(k, np.inf)]),
                    np.concatenate([np.full(n, FREE, np.int8), w.kind]),
-                   np.concatenate([np.zeros(n), w.phi0]), n)
+                   np.concatenate([np.zeros(n), w.phi0]),
+                   np.concatenate([labels, np.where(w.kind == OUTER_WALL, s + 1, s)]).astype(
+                       np.int8), n)
 
 
-def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Free disks placed at random between the rings (clear of their wall disks): x, radius,
-    mass."""
+    mass, species."""
     g = scene.geometry
     rng = np.random.default_rng(scene.info.seed)
     counts = [s.count for s in scene.species]
@@ -89,7 +96,7 @@ def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     ang = rng.uniform(0.0, 2.0 * math.pi, n)
     rad = room * np.sqrt(rng.uniform(0.0, 1.0, n))
     x = chosen + np.column_stack([rad * np.cos(ang), rad * np.sin(ang)])
-    return x, radius, mass
+    return x, radius, mass, labels
 
 
 def _lattice_sites(r_lo: float, r_hi: float, n: int, min_spacing: float):
@@ -132,6 +139,7 @@ def cell_rows(init: Initial, hist: int, idx: np.ndarray | None = None,
     ps = Particles(*(a[:n] for a in arrays))
     ps.gid[:] = idx
     ps.kind[:] = init.kind[idx]
+    ps.species[:] = init.species[idx]
     ps.x[:] = init.x[idx]
     ps.v[:] = init.v[idx]
     ps.omega[:] = init.omega[idx]

@@ -2,10 +2,9 @@
 
 Stage: input. A ``Scene`` is made of frozen, validated dataclasses (every key: docs/input.md,
 generated from here); nothing downstream re-checks them.
-The checks are in ``schema.py`` (``scene_from_dict``; free particles in ``particles_input.py``).
-Every problem raises ``SceneError`` with one message naming the offending ``[table] key``.
-Reading and writing scene files: ``scene_file.py``.
-Units are SI throughout: m, kg, s, rad, N.
+The checks are in ``schema.py`` (``scene_from_dict``; free particles in ``particles.py``);
+every problem raises ``SceneError`` naming the offending ``[table] key``. Files:
+``scene_file.py``. Units are SI throughout: m, kg, s, rad, N.
 """
 
 from __future__ import annotations
@@ -98,16 +97,18 @@ class Species:
     share: float | None = key(None, rule=">0")
 
 
-_PCOLS = ("x", "y", "vx", "vy", "omega", "diameter", "mass")
 _PUNITS = {"x": "m", "y": "m", "vx": "m/s", "vy": "m/s", "omega": "rad/s", "diameter": "m",
-           "mass": "kg"}
+           "mass": "kg", "species": ""}
+_PCOLS = tuple(_PUNITS)
+MAX_SPECIES = 100  # a particle's species is one byte, beside the two rings' numbers
 
 
 @dataclass(frozen=True, eq=False)
 class FreeParticles(Columns):
     """Free-scene particles, row i = particle id i: read-only float64 arrays x, y (m, required),
     vx, vy (m/s, default 0), omega (rad/s, default 0), diameter (m, required), mass (kg,
-    required). All of one length N >= 1."""
+    required), species (an integer 0, 1, ... that [[contact.pair]] tables name; default 0).
+    All of one length N >= 1."""
 
     COLUMNS = _PCOLS
     x: np.ndarray
@@ -117,6 +118,13 @@ class FreeParticles(Columns):
     omega: np.ndarray
     diameter: np.ndarray
     mass: np.ndarray
+    species: np.ndarray | None = None  # None: every particle of species 0
+
+    def __post_init__(self) -> None:
+        for k, v in ((k, getattr(self, k)) for k in _PCOLS):
+            a = np.array(np.zeros(np.size(self.x)) if v is None else v, dtype=np.float64)
+            a.setflags(write=False)
+            object.__setattr__(self, k, a)
 
     def __len__(self) -> int:
         return int(self.x.size)
@@ -147,6 +155,19 @@ class Contact:
     poisson_ratio: float = key(0.0, "", ">-1 <=0.499")
     k_unload: float = key(0.0, "N/m", ">0")
     k_adhesion: float = key(0.0, "N/m", ">=0")
+
+
+@dataclass(frozen=True)
+class PairLaw:
+    """``[[contact.pair]]`` (optional): the law of one pair. ``species``: two species names, or a
+    species and "inner_ring" or "outer_ring" (its wall disks and flat surface); in a free scene
+    two species numbers (the particles' column). Then any [contact] key of a contact (not normal,
+    mu_bottom, gravity, height), same units and rules; a key left out takes the [contact]
+    value; a pair without a table mixes its partners' own laws (their tables with themselves,
+    else [contact]; the rule, the step, k'_n: docs/extending.md)."""
+
+    species: tuple
+    values: tuple[tuple[str, float], ...]
 
 
 @dataclass(frozen=True)
@@ -234,6 +255,7 @@ class AveragingCfg:
 class Scene:
     """A complete validated scene. ``geometry`` and ``species`` are set for couette scenes,
     ``particles`` for free ones; ``averaging`` is None without an ``[averaging]`` table;
+    ``pairs``: the [[contact.pair]] tables (partners in species order, a ring second);
     ``source`` is the file it was loaded from (not part of equality or ``to_dict``);
     ``wall_disks``: fixed wall disks (wall_file.py), None without."""
 
@@ -247,6 +269,7 @@ class Scene:
     neighbors: Neighbors
     output: OutputCfg
     averaging: AveragingCfg | None
+    pairs: tuple[PairLaw, ...] = ()
     source: str | None = field(default=None, compare=False)
     wall_disks: WallDisks | None = None
 
@@ -272,13 +295,17 @@ class Scene:
                              for k, v in dataclasses.asdict(self.geometry).items()}
             d["species"] = [{k: v for k, v in dataclasses.asdict(s).items() if k != "share"}
                             for s in self.species]  # resolved: counts, no shares
-        if self.particles is not None:
-            cols = [getattr(self.particles, k).tolist() for k in _PCOLS]
-            d["particles"] = [dict(zip(_PCOLS, row)) for row in zip(*cols)]
+        if self.particles is not None:  # species only when given (older scenes' fingerprints)
+            names = [k for k in _PCOLS if k != "species" or self.particles.species.any()]
+            cols = [getattr(self.particles, k).tolist() for k in names]
+            d["particles"] = [dict(zip(names, row)) for row in zip(*cols)]
         if self.wall_disks is not None:
             d["wall_disks"] = self.wall_disks.rows()
         d["contact"] = {k: v for k, v in dataclasses.asdict(self.contact).items()
                         if k not in foreign_keys(self.contact.normal)}
+        if self.pairs:
+            d["contact"]["pair"] = [{"species": list(p.species), **dict(p.values)}
+                                    for p in self.pairs]
         d["effects"] = dataclasses.asdict(self.effects)
         t = dataclasses.asdict(self.time)
         d["time"] = {**t, "dt": "auto" if t["dt"] is None else t["dt"]}
@@ -310,21 +337,6 @@ class Scene:
         d.pop("output")
         d.pop("averaging", None)
         return d
-
-
-def physics_differences(ours: dict, theirs: dict) -> list[str]:
-    """``[table] key: theirs -> ours`` for every key where two ``Scene.physics()`` differ
-    (lists of tables, such as [[species]] and [[particles]], compared whole)."""
-    out = []
-    for table in sorted(set(ours) | set(theirs)):
-        a, b = ours.get(table), theirs.get(table)
-        if isinstance(a, dict) and isinstance(b, dict):
-            out += [f"[{table}] {k}: {b.get(k, '(absent)')!r} in the checkpoint, "
-                    f"{a.get(k, '(absent)')!r} here"
-                    for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
-        elif a != b:
-            out.append(f"[[{table}]] differ" if isinstance(a or b, list) else f"[{table}] differs")
-    return out
 
 
 _LATER = {("time", "integrator"): "verlet",

@@ -40,6 +40,8 @@ def _toml_value(v: Any) -> str:
         return str(v)
     if isinstance(v, float):
         return repr(v)  # shortest repr round-trips exactly; inf/nan are refused on input
+    if isinstance(v, list):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
     chars = []
     for ch in str(v):
         if ch in '"\\':
@@ -59,7 +61,14 @@ def scene_to_toml(scene: Scene) -> str:
         rows = body if isinstance(body, list) else [body]
         head = f"[[{name}]]" if isinstance(body, list) else f"[{name}]"
         for row in rows:
-            out += ["", head] + [f"{k} = {_toml_value(v)}" for k, v in row.items()]
+            tables = {k: v for k, v in row.items() if isinstance(v, list) and v
+                      and isinstance(v[0], dict)}  # [[contact.pair]]
+            out += ["", head] + [f"{k} = {_toml_value(v)}" for k, v in row.items()
+                                 if k not in tables]
+            for key, sub in tables.items():
+                for t in sub:
+                    out += ["", f"[[{name}.{key}]]"] + [f"{k} = {_toml_value(v)}"
+                                                        for k, v in t.items()]
     return "\n".join(out) + "\n"
 
 

@@ -14,6 +14,8 @@ from pathlib import Path
 from typing import Any
 
 from ..contact.keys import check_law, check_slots
+from ..contact.pairs import BOUNDARIES
+from .pair_table import check_pairs
 from .particles import check_particles, particles_from_file, particles_from_tables
 from ..boundaries.wall_file import wall_disks_of
 from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
@@ -87,11 +89,15 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
     if why:
         raise fail("[scene]", "name", info["name"], why)
     kind = info["kind"]
-    opt = {t: _parse(d.get(t, {}), t, f"[{t}]")
-           for t in ("contact", "effects", "time", "neighbors", "output")}
+    raw = {t: d.get(t, {}) for t in ("contact", "effects", "time", "neighbors", "output")}
+    pair_rows = None
+    if isinstance(raw["contact"], dict) and "pair" in raw["contact"]:
+        raw["contact"] = dict(raw["contact"])
+        pair_rows = raw["contact"].pop("pair")
+    opt = {t: _parse(r, t, f"[{t}]") for t, r in raw.items()}
     c, e = opt["contact"], opt["effects"]
     check_slots(c, e)
-    check_law(c, d.get("contact", {}))
+    check_law(c, raw["contact"])
     averaging = None
     if "averaging" in d:
         a = _parse(d["averaging"], "averaging", "[averaging]")
@@ -137,9 +143,14 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
         else:
             raise SceneError("[[particles]] missing: a free scene needs [[particles]] tables "
                              "or particles_file")
+    pairs = ()
+    if pair_rows is not None:
+        partners = (tuple(s.name for s in species) + BOUNDARIES if kind == "couette" else
+                    tuple(range(int(particles.species.max()) + 1)))
+        pairs = check_pairs(pair_rows, c, raw["contact"], e, partners)
     return Scene(SceneInfo(**info), geometry, species, particles, Contact(**c), Effects(**e),
                  TimeCfg(**opt["time"]), Neighbors(**opt["neighbors"]),
-                 OutputCfg(**opt["output"]), averaging, source,
+                 OutputCfg(**opt["output"]), averaging, pairs, source,
                  wall_disks_of(d, kind, particles, Path(base_dir)))
 
 

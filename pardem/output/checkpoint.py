@@ -28,8 +28,11 @@ import numpy as np
 from ..input.scene import SceneError
 from .atomic import size_of, writing
 
-ARRAYS = ("gid", "kind", "x", "v", "theta", "omega", "f", "tau", "radius", "mass", "phi0", "e0",
-          "hist_wall")
+ARRAYS = ("gid", "kind", "species", "x", "v", "theta", "omega", "f", "tau", "radius", "mass",
+          "phi0", "e0", "hist_wall")
+LATER_ARRAYS = ("species",)
+"""Particle arrays a checkpoint of an older pardem may lack: read from the scene then (each
+particle's species follows from the scene and its id, as its radius and mass do)."""
 PAIRS = ("pair_lo", "pair_hi", "pair_hist", "force_lo", "force_hi", "pair_force", "ring_force")
 VERSION = 2
 
@@ -75,7 +78,7 @@ def open_checkpoint(path: str | os.PathLike):
             arrays = {k: h5[k] for k in h5.keys()}
             if int(attrs.get("version", 1)) == 1:
                 _upgrade(arrays, attrs)
-            missing = [k for k in ARRAYS + PAIRS if k not in arrays]
+            missing = [k for k in ARRAYS + PAIRS if k not in arrays and k not in LATER_ARRAYS]
             missing += [f"attribute {a!r}" for a in ATTRS if a not in attrs]
             if missing:
                 raise SceneError(f"--restart {path}: corrupted checkpoint: it lacks "
@@ -90,9 +93,10 @@ def open_checkpoint(path: str | os.PathLike):
 
 ATTRS = ("step", "time", "dt", "fingerprint")
 # trailing shape of each dataset; rows: "n" per particle, "m" per history pair, "q" per force
-LAYOUT = {"gid": ("n", ()), "kind": ("n", ()), "x": ("n", (2,)), "v": ("n", (2,)),
-          "theta": ("n", ()), "omega": ("n", ()), "f": ("n", (2,)), "tau": ("n", ()),
-          "radius": ("n", ()), "mass": ("n", ()), "phi0": ("n", ()), "e0": ("n", (2,)),
+LAYOUT = {"gid": ("n", ()), "kind": ("n", ()), "species": ("n", ()), "x": ("n", (2,)),
+          "v": ("n", (2,)), "theta": ("n", ()), "omega": ("n", ()), "f": ("n", (2,)),
+          "tau": ("n", ()), "radius": ("n", ()), "mass": ("n", ()), "phi0": ("n", ()),
+          "e0": ("n", (2,)),
           "ring_force": ("n", (3,)), "pair_lo": ("m", ()), "pair_hi": ("m", ()),
           "force_lo": ("q", ()), "force_hi": ("q", ()), "pair_force": ("q", (3,))}
 
@@ -108,6 +112,8 @@ def _check_layout(path, arrays: dict[str, np.ndarray], attrs: dict[str, object])
     rows = {"n": np.shape(arrays["gid"]), "m": np.shape(arrays["pair_lo"]),
             "q": np.shape(arrays["force_lo"])}
     for key, (count, tail) in LAYOUT.items():
+        if key in LATER_ARRAYS and key not in arrays:
+            continue
         a = arrays[key]  # shape and dtype only: nothing is read
         want = rows[count] + tail
         if a.dtype.kind not in "iuf" or a.shape != want:

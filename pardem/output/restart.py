@@ -18,11 +18,11 @@ import numpy as np
 
 from ..contact.history import carry_history, merge_history
 from ..input.placement import cell_rows, share_rows
-from ..input.scene import SceneError, physics_differences
+from ..input.scene import SceneError
 from ..core.state import FREE, Particles
 from .averages import ARRAYS as AVERAGE_ARRAYS
 from .averages import checkpoint_part
-from .checkpoint import ARRAYS, checkpoint_file, open_checkpoint
+from .checkpoint import ARRAYS, LATER_ARRAYS, checkpoint_file, open_checkpoint
 
 
 def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
@@ -165,8 +165,8 @@ def _read_share(path, ps, idx: np.ndarray, columns: tuple[str, ...]):
     with open_checkpoint(path) as (arrays, attrs):
         k = idx.size
         for key in ARRAYS:
-            if key == "hist_wall":
-                continue
+            if key == "hist_wall" or key in LATER_ARRAYS and key not in arrays:
+                continue  # a later array missing: the scene's (cell_rows) stand
             rows = _rows(arrays[key], idx)
             _check_rows(path, key, rows, getattr(ps, key)[:k], idx)
             getattr(ps, key)[:k] = rows
@@ -242,7 +242,7 @@ def _check_rows(path, key: str, got: np.ndarray, want: np.ndarray | None, rows) 
 
 # e0 = (cos, sin) phi0 may differ by an ulp between numpy builds: a checkpoint moves; masses
 # of wall disks are inf; phi0 and e0 are the wall disks' places on their rings
-IDENTITY = {"gid": 0, "kind": 0, "radius": 0, "mass": 0, "phi0": 0, "e0": 1e-12}
+IDENTITY = {"gid": 0, "kind": 0, "species": 0, "radius": 0, "mass": 0, "phi0": 0, "e0": 1e-12}
 FINITE = ("x", "v", "theta", "omega", "f", "tau", "hist_wall", "pair_hist", "pair_force",
           "ring_force")
 
@@ -276,3 +276,18 @@ def put_recorded_forces(sim, lo, hi, pair_force, ring_gid, ring_force) -> None:
     q = pairs.wall[:pairs.wall_count[0]]
     ring = np.asarray(ring_force, float)[np.searchsorted(ring_gid, sim.ps.gid[q])]
     pairs.wall_fn[:q.size], pairs.wall_ft[:q.size] = ring[:, 0], ring[:, 1:]
+
+
+def physics_differences(ours: dict, theirs: dict) -> list[str]:
+    """``[table] key: theirs -> ours`` for every key where two ``Scene.physics()`` differ
+    (lists of tables, such as [[species]] and [[particles]], compared whole)."""
+    out = []
+    for table in sorted(set(ours) | set(theirs)):
+        a, b = ours.get(table), theirs.get(table)
+        if isinstance(a, dict) and isinstance(b, dict):
+            out += [f"[{table}] {k}: {b.get(k, '(absent)')!r} in the checkpoint, "
+                    f"{a.get(k, '(absent)')!r} here"
+                    for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
+        elif a != b:
+            out.append(f"[[{table}]] differ" if isinstance(a or b, list) else f"[{table}] differs")
+    return out

@@ -16,8 +16,10 @@ from dataclasses import MISSING
 from pathlib import Path
 
 from pardem.contact.normal import LAWS
+from pardem.contact.pairs import BOUNDARIES
+from pardem.input.pair_table import PAIR_KEYS, SCENE_KEYS
 from pardem.input.scene import (AveragingCfg, Contact, Effects, FreeParticles, Geometry, Neighbors,
-                                OutputCfg, SceneInfo, Species, TimeCfg, _PUNITS)
+                                OutputCfg, PairLaw, SceneInfo, Species, TimeCfg, _PUNITS)
 
 PAGE = Path(__file__).resolve().parents[2] / "docs" / "input.md"
 TABLES = (("[scene]", SceneInfo, "required"), ("[geometry]", Geometry, "couette scenes"),
@@ -118,6 +120,24 @@ def _normal_laws() -> str:
             "|---|---|---|---|---|\n" + "\n".join(rows) + "\n")
 
 
+def _unit(key: str) -> str:
+    return Contact.__dataclass_fields__[key].metadata["unit"] or "–"
+
+
+def _pair_tables() -> str:
+    """The ``[[contact.pair]]`` tables (pair_input.py: their keys, from [contact]'s)."""
+    rings = " or ".join(f'`"{b}"`' for b in BOUNDARIES)
+    return ("## `[[contact.pair]]`\n\n*optional, any number: the contact law of one pair*\n\n"
+            f"{_doc(PairLaw)}\n\n| key | kind | unit | allowed |\n|---|---|---|---|\n"
+            f"| `species` | list of two | – | species names, or a species and {rings} (couette);"
+            " species numbers (free) |\n"
+            + "\n".join(f"| `{k}` | number | {_unit(k)} | as in `[contact]` |" for k in PAIR_KEYS)
+            + "\n\nNot in a pair table (one value per scene): "
+            + ", ".join(f"`{k}`" for k in SCENE_KEYS)
+            + ". Mixing rule, scales and how a pair's law reaches the kernels: "
+              "[Parameters per pair of species](extending.md#parameters-per-pair-of-species).\n")
+
+
 def render() -> str:
     parts = [INTRO]
     for name, cls, when in TABLES:
@@ -132,7 +152,9 @@ def render() -> str:
                      + "\n".join(rows) + "\n")
         if cls is Contact:
             parts.append(_normal_laws())
-    prows = "\n".join(f"| `{k}` | {u} | {'0' if k in ('vx', 'vy', 'omega') else 'required'} |"
+            parts.append(_pair_tables())
+    optional = ("vx", "vy", "omega", "species")
+    prows = "\n".join(f"| `{k}` | {u or '–'} | {'0' if k in optional else 'required'} |"
                       for k, u in _PUNITS.items())
     parts.append(FREE.format(rows=prows, doc=_doc(FreeParticles)))
     parts.append(WALLS)
