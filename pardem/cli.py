@@ -105,7 +105,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.command == "warmup":
         return _warmup(args)
     t_start = time.perf_counter()
-    from .parallel import abort, on_root, rank_of, world
+    from .compile_watch import CompileWatch, compile_label
+    from .parallel import abort, on_root, rank_of, size_of, world
     from .input.scene import SceneError
     from .input.scene_file import load_scene
     from .simulation import Simulation, SimulationError
@@ -119,22 +120,23 @@ def main(argv: list[str] | None = None) -> int:
         scene = load_scene(args.scene)
         out = Path(args.out) if args.out else Path("runs") / scene.info.name
         on_root(comm, _check_writable, out)
-        if root:  # the first run with a set of effects spends a minute in numba
-            sys.stderr.write(f"pardem: {scene.info.name}: building the initial state and the "
-                             "compiled kernels (compiled on the first run with this scene's set "
-                             "of effects, half a minute to two minutes; loaded from the cache "
-                             "later)\n")
-            sys.stderr.flush()
-        sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm,
-                         overwrite=args.overwrite, cut=args.cut)
+        watch = CompileWatch(compile_label(scene, size_of(comm)), report=_say if root else None)
         if root:
-            sys.stderr.write(
-                f"pardem: {scene.info.name}: {sim.n_free} particles, dt = {sim.dt:.4g} s, "
-                f"{sim.decomp.describe()}, ready in {time.perf_counter() - t_start:.2f} s; "
-                f"output in {out}\n")
-        # SIGINT/SIGTERM: every rank stops at a step, checkpointed; this process only ends then
-        with catching_signals(restore=argv is not None):  # argv given: called from Python
-            sim.run(end=args.end, progress=not args.quiet)
+            _say(f"pardem: {scene.info.name}: building the initial state; kernels load from the "
+                 f"cache, or compile on the first run of this set of effects ({watch.plan()})")
+        with watch:  # numba compiles at first calls: in the set-up and the first steps
+            sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm,
+                             overwrite=args.overwrite, cut=args.cut)
+            if root:
+                compiled = (f" (compiled {watch.kernels} kernels in {watch.seconds:.0f} s)"
+                            if watch.kernels else "")
+                watch.reported = watch.kernels
+                _say(f"pardem: {scene.info.name}: {sim.n_free} particles, dt = {sim.dt:.4g} s, "
+                     f"{sim.decomp.describe()}, ready in {time.perf_counter() - t_start:.2f} s"
+                     f"{compiled}; output in {out}")
+            # SIGINT/SIGTERM: every rank stops at a step, checkpointed; this process only ends then
+            with catching_signals(restore=argv is not None):  # argv given: called from Python
+                sim.run(end=args.end, progress=not args.quiet)
     except SceneError as e:
         if root:
             sys.stderr.write(f"pardem: error: {in_file(e, args.scene)}\n")
@@ -184,12 +186,18 @@ def main(argv: list[str] | None = None) -> int:
     return 0
 
 
+def _say(line: str) -> None:
+    sys.stderr.write(line + "\n")
+    sys.stderr.flush()
+
+
 def _warmup(args) -> int:
     """A few steps of each scene with every writer on, in a scratch folder: numba compiles what
     a run of that scene needs and caches it on disk (~/.cache/pardem/numba). Under ``mpiexec
     -n P`` it compiles what a P-rank run needs (the step loop with the ghost exchange)."""
     import tempfile
 
+    from .compile_watch import CompileWatch, compile_label
     from .parallel import abort, barrier, broadcast, rank_of, size_of, world
     from .input.scene import SceneError
     from .input.scene_file import load_scene
@@ -202,7 +210,10 @@ def _warmup(args) -> int:
         tmp = tempfile.mkdtemp(prefix="pardem-warmup-") if root else None
         tmp = broadcast(comm, tmp)
         try:
-            warm_up(load_scene(path), tmp, comm)
+            scene = load_scene(path)
+            with CompileWatch(compile_label(scene, size_of(comm)),
+                              report=_say if root else None) as watch:
+                warm_up(scene, tmp, comm)
         except SceneError as e:  # in the file, or found building the state (placement, dt)
             if root:
                 sys.stderr.write(f"pardem: error: {in_file(e, path)}\n")
@@ -220,7 +231,9 @@ def _warmup(args) -> int:
                 shutil.rmtree(tmp, ignore_errors=True)
         if root:
             ranks = "" if comm is None else f" for {size_of(comm)} ranks"
-            print(f"{path}: kernels ready{ranks} in {time.perf_counter() - t0:.1f} s")
+            how = (f"compiled {watch.kernels} kernels in {watch.seconds:.0f} s" if watch.kernels
+                   else "all from the cache")
+            print(f"{path}: kernels ready{ranks} in {time.perf_counter() - t0:.1f} s ({how})")
     return 0
 
 

@@ -3,6 +3,7 @@ without long positional argument lists, MPI reached only from pardem/parallel/, 
 that never loads MPI."""
 
 import ast
+import shutil
 import subprocess
 import sys
 from pathlib import Path
@@ -164,11 +165,36 @@ print("mpi4py" in sys.modules, "libmpi" in maps)
 
 
 def test_the_kernel_cache_is_keyed_by_the_kernel_sources():
-    """The numba cache folder's name hashes every source that uses numba (core/jit.py): the
-    step loop, the contact law and the averaging's kernels among them, found from wherever
-    jit.py lies in the package."""
+    """The numba cache folder's name hashes what compiled code depends on (core/jit.py): the
+    modules that define kernels (the step loop, the contact law, the averaging's sums) and
+    those they import (the particle kinds' constants), found from wherever jit.py lies in the
+    package; not the front end."""
     from pardem.core.jit import kernel_sources
 
     found = {p.relative_to(ROOT).as_posix() for p in kernel_sources()}
-    assert {"pardem/core/step.py", "pardem/contact/model.py", "averaging/sums.py"} <= found
-    assert "pardem/input/scene.py" not in found  # no kernels: editing it keeps the cache
+    assert {"pardem/core/step.py", "pardem/contact/model.py", "averaging/sums.py",
+            "pardem/core/static.py", "pardem/boundaries/protocol.py"} <= found
+    for front in ("pardem/cli.py", "pardem/simulation.py", "pardem/builder.py",
+                  "pardem/input/scene.py", "pardem/output/progress.py", "averaging/report.py"):
+        assert front not in found
+
+
+def test_an_upgrade_that_changes_no_kernel_keeps_the_cache_folder(tmp_path):
+    """In a copy of the sources, editing the CLI, the run loop or a scene table's docs keeps
+    the cache key (the compiled kernels are found again); editing a comment of the force loop,
+    or a constant the kernels import, gives a new one."""
+    from pardem.core.jit import kernel_key
+
+    for package in ("pardem", "averaging"):
+        shutil.copytree(ROOT / package, tmp_path / package,
+                        ignore=shutil.ignore_patterns("__pycache__"))
+    key = kernel_key(tmp_path)
+    for front in ("pardem/cli.py", "pardem/simulation.py", "pardem/input/scene.py"):
+        with open(tmp_path / front, "a") as f:
+            f.write("\n# an upgrade of the front end\n")
+        assert kernel_key(tmp_path) == key, front
+    for kernel in ("pardem/core/forces.py", "pardem/boundaries/protocol.py"):
+        with open(tmp_path / kernel, "a") as f:
+            f.write("\n# an edit of what kernels read\n")
+        assert kernel_key(tmp_path) != key, kernel
+        key = kernel_key(tmp_path)
