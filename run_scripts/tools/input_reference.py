@@ -17,7 +17,7 @@ from pathlib import Path
 
 from pardem.contact.normal import LAWS
 from pardem.input.scene import (AveragingCfg, Contact, Effects, FreeParticles, Geometry, Neighbors,
-                                OutputCfg, SceneInfo, Species, TimeCfg, _PUNITS)
+                                OutputCfg, SceneInfo, Species, TimeCfg, WarningsCfg, _PUNITS)
 
 PAGE = Path(__file__).resolve().parents[2] / "docs" / "input.md"
 TABLES = (("[scene]", SceneInfo, "required"), ("[geometry]", Geometry, "couette scenes"),
@@ -25,9 +25,11 @@ TABLES = (("[scene]", SceneInfo, "required"), ("[geometry]", Geometry, "couette 
           ("[contact]", Contact, "optional"), ("[effects]", Effects, "optional"),
           ("[time]", TimeCfg, "optional"), ("[neighbors]", Neighbors, "optional"),
           ("[output]", OutputCfg, "optional"),
-          ("[averaging]", AveragingCfg, "optional: in-situ ring averaging of couette scenes"))
+          ("[averaging]", AveragingCfg, "optional: in-situ ring averaging of couette scenes"),
+          ("[warnings]", WarningsCfg, "optional: when a run warns (docs/warnings.md)"))
 KINDS = {"float": "number", "int": "integer", "bool": "true / false", "str": "string",
-         "float | None": 'number or "auto"', "int | None": 'integer or "auto"'}
+         "float | None": 'number or "auto"', "int | None": 'integer or "auto"',
+         "float | bool": "number or `false`"}
 
 INTRO = """# Input reference
 
