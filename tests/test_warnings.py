@@ -68,7 +68,7 @@ def test_a_run_squeezed_to_a_tenth_of_d_warns_once_in_the_compression_and_once_a
     # is the even squeeze (a small wave still runs round the file)
     assert expected - 0.003 < at_comp < expected + 0.02
     assert at_shear == pytest.approx(expected, abs=0.003)
-    assert "[warnings] overlap = 5 %" in err and "stiffen k_n" in err
+    assert "[warnings] overlap = 5 %" in err and "stiffen the contact (k_n" in err
     log = (tmp_path / "run" / "log.txt").read_text()
     assert overlap_warnings(log) == said
 

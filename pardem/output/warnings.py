@@ -69,11 +69,10 @@ class RunWarnings:
         return self.comp_step if step < self.comp_step else math.inf
 
     def phase(self, step: int) -> str:
+        """"compression" (to its last step), "shear" (after it) or, in a free scene, "run"."""
         if self.t_comp is None:
-            return "the run"
-        if step <= self.comp_step:
-            return f"the compression (to t = {self.t_comp:g} s)"
-        return "the shear (after the compression)"
+            return "run"
+        return "compression" if step <= self.comp_step else "shear"
 
     def overlap(self, sim, overlap: float) -> None:
         """Warn if ``overlap`` (the largest, over the smaller free diameter; every rank's
@@ -84,15 +83,20 @@ class RunWarnings:
         if phase in self.given:
             return
         self.given.add(phase)
-        if phase.startswith("the compression"):
-            remedy = ("compress more slowly (a longer compression_time) if the ring's push does "
-                      "it, to a lower density (fewer disks, a larger outer_radius) if the "
-                      "packing is too dense for the cell, or stiffen k_n")
-        else:
-            remedy = "stiffen k_n, or shear more slowly or a less dense packing"
-        warn(sim, f"t = {sim.time:.4g} s, during {phase}: the largest overlap is "
+        stiffer = "stiffen the contact (k_n; youngs_modulus with the Hertz law)"
+        when, remedy = {
+            "run": ("the run", f"{stiffer}, or slow the disks down"),
+            "compression": (f"the compression (to t = {self.t_comp:g} s)",
+                            "compress more slowly (a longer compression_time) if the ring's "
+                            "push does it, to a lower density (fewer disks, a larger "
+                            "outer_radius) if the packing is too dense for the cell, or "
+                            f"{stiffer}"),
+            "shear": ("the shear (after the compression)",
+                      f"{stiffer}, shear more slowly (a smaller omega_inner) or make the "
+                      "packing less dense")}[phase]
+        warn(sim, f"t = {sim.time:.4g} s, during {when}: the largest overlap is "
                   f"{100 * overlap:.2f} % of the smaller diameter of its disks, above [warnings] "
-                  f"overlap = {100 * self.limit:g} %. The linear law stands for a small elastic "
+                  f"overlap = {100 * self.limit:g} %. The contact law stands for a small elastic "
                   "dent (the paper's packings reach ~1 %); this deep, the forces, contact times "
                   f"and volume fractions no longer follow the material: {remedy}. (Said once "
                   "per phase; [warnings] overlap sets the level, false silences this; at 25 % "
