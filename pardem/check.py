@@ -2,12 +2,15 @@
 
 Stage: entry point. Prints the resolved scene (every default filled in), the contact time of
 the stiffest pair, the time step and steps per contact, the global volume fraction, the
-number of steps and particle-steps, and an estimate of the wall time from a reference rate
+number of steps and particle-steps, an estimate of the wall time from a reference rate
 (``REFERENCE_RATE``: an order of magnitude, not a promise; the machine and the state of the
-packing change it by a factor of two).
+packing change it by a factor of two) with how it was obtained and what the machine's load
+does to it, and the scene's warnings (input/sanity.py).
 """
 
 from __future__ import annotations
+
+import os
 
 
 from .core.memory import needed_bytes, particle_count, size_text
@@ -17,9 +20,16 @@ from .core.scales import smallest_contact_time
 from .core.stability import stability_limit
 from .core.timestep import off_step_text, resolve_step
 from .boundaries.walls import global_volume_fraction
+from .input.sanity import density_warning
+from .parallel import usable_cores
 
 REFERENCE_RATE = 25e6
 """Particle-steps per second of one rank on couette_B (docs/scaling.md, 2-core machine)."""
+REFERENCE = ("not timed here (nothing is compiled): the work over a reference rate, from one "
+             "rank of an otherwise idle 2-core machine on couette_B (2,939 disks), 23 M "
+             "particle-steps/s after its compression and 40 M in steady shear (medians of "
+             "20000-step runs, docs/scaling.md); a denser or larger cell is slower per particle "
+             "(a 300k-disk cell ran at 0.44 of B's rate)")
 
 
 def volume_fraction(scene: Scene) -> float | None:
@@ -55,9 +65,27 @@ def describe(scene: Scene) -> str:
                  f"{_duration(work / REFERENCE_RATE / 1.7)} on 2 (at "
                  f"{REFERENCE_RATE / 1e6:.0f} M particle-steps/s per rank; plus about a minute "
                  "of compilation on a first run)")
+    lines.append(f"# the estimate is {REFERENCE}")
+    lines.append(load_note(work / REFERENCE_RATE, *os.getloadavg()[:1], len(usable_cores())))
     lines.append(f"# memory: about {size_text(needed_bytes(scene))} per rank at set-up "
                  f"({particle_count(scene)} particles with the wall disks)")
+    warning = density_warning(scene)
+    if warning:
+        lines.append(f"# warning: {warning}")
     return "\n".join(lines)
+
+
+def load_note(seconds: float, load: float, cores: int) -> str:
+    """What the machine's load (the 1-minute load average: processes running or waiting for a
+    core) does to ``seconds`` on one rank: a new process gets about cores / (load + 1) of a
+    core when that is below one."""
+    share = cores / (load + 1.0)
+    head = f"# this machine: {cores} cores, load average {load:.2f} over the last minute: "
+    if share >= 1.0:
+        return head + "a rank would have a core to itself, as in the reference"
+    return (head + f"a rank would get about {share:.2f} of a core, so expect about "
+            f"{_duration(seconds / share)} on 1 rank; several ranks beside other jobs slow far "
+            "more, each waiting for the others at every step (docs/warnings.md)")
 
 
 def _output_times(scene: Scene, step) -> str:

@@ -189,6 +189,22 @@ def test_too_many_ranks_is_refused_with_a_clear_message(tmp_path):
     assert "too many for this cell" in proc.stderr and "use at most" in proc.stderr
 
 
+def test_more_ranks_than_cores_warn_once_with_the_counts(tmp_path):
+    """4 ranks on this machine's cores (fewer than 4): one warning, from rank 0, naming both
+    counts (docs/warnings.md); the cores are those the test process may run on."""
+    cores = len(os.sched_getaffinity(0))
+    if cores >= 4:
+        pytest.skip(f"{cores} cores: 4 ranks are not oversubscribed here")
+    scene = fast_shear_scene(tmp_path)
+    done = run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / "o"),
+                    "--end", "0.01", "--quiet"], 4, module=False)
+    said = f"pardem: warning: 4 ranks share {cores} cores on one node"
+    assert done.stderr.count("ranks share") == 1 and said in done.stderr, done.stderr
+    assert f"at most {cores} ranks per node" in done.stderr
+    log = (tmp_path / "o" / "log.txt").read_text()
+    assert log.count(f"warning: 4 ranks share {cores} cores") == 1
+
+
 def test_a_2_rank_warmup_leaves_nothing_for_a_2_rank_run_to_compile(tmp_path):
     """`mpiexec -n 2 pardem warmup SCENE` compiles what a 2-rank run of the scene calls: the
     run then loads every kernel from the cache (numba reports each kernel it saves)."""

@@ -12,7 +12,7 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import json
-from dataclasses import MISSING, dataclass, field
+from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -20,18 +20,11 @@ import numpy as np
 from ..contact.keys import foreign_keys
 from ..contact.normal import LAWS
 from .errors import SceneError  # noqa: F401  (importers of the scene types read it here)
-from .values import Columns
+from .values import Columns, key
+from .warnings_table import WarningsCfg
 
 if TYPE_CHECKING:
     from ..boundaries.wall_file import WallDisks
-
-
-def key(default: Any = MISSING, unit: str = "", rule: str = ""):
-    """A scene key: its default (none: required), unit and allowed values (">0", ">=5",
-    "a|b"); its kind comes from the annotation ("float | None" accepts "auto"). The checks
-    (schema.py) read these, so a key is declared once, here."""
-    meta = {"unit": unit, "rule": rule}
-    return field(metadata=meta) if default is MISSING else field(default=default, metadata=meta)
 
 
 @dataclass(frozen=True)
@@ -257,7 +250,8 @@ class Scene:
     ``particles`` for free ones; ``averaging`` is None without an ``[averaging]`` table;
     ``pairs``: the [[contact.pair]] tables (partners in species order, a ring second);
     ``source`` is the file it was loaded from (not part of equality or ``to_dict``);
-    ``wall_disks``: fixed wall disks (wall_file.py), None without."""
+    ``wall_disks``: fixed wall disks (wall_file.py), None without; ``warnings``: the
+    [warnings] table (not physics: left out of the fingerprint)."""
 
     info: SceneInfo
     geometry: Geometry | None
@@ -272,6 +266,7 @@ class Scene:
     pairs: tuple[PairLaw, ...] = ()
     source: str | None = field(default=None, compare=False)
     wall_disks: WallDisks | None = None
+    warnings: WarningsCfg = WarningsCfg()
 
     @property
     def n_free(self) -> int:
@@ -314,13 +309,14 @@ class Scene:
         if self.averaging is not None:
             d["averaging"] = {k: "auto" if v is None else v
                               for k, v in dataclasses.asdict(self.averaging).items()}
+        d["warnings"] = dataclasses.asdict(self.warnings)
         return d
 
     def fingerprint(self) -> str:
-        """sha256 hex of the physics: to_dict() without scene.name, time.end, [output] and
-        [averaging], which may legitimately change on a restart, and without keys added since
-        the first release while they hold their default (``_LATER``), so that older
-        checkpoints stay restartable."""
+        """sha256 hex of the physics: to_dict() without scene.name, time.end, [output],
+        [averaging] and [warnings], which may legitimately change on a restart, and without
+        keys added since the first release while they hold their default (``_LATER``), so
+        that older checkpoints stay restartable."""
         text = json.dumps(self.physics(), sort_keys=True, separators=(",", ":"),
                           allow_nan=False)
         return hashlib.sha256(text.encode()).hexdigest()
@@ -334,8 +330,8 @@ class Scene:
         for (table, key), default in _LATER.items():
             if table in d and d[table][key] == default:
                 d[table].pop(key)
-        d.pop("output")
-        d.pop("averaging", None)
+        for table in ("output", "averaging", "warnings"):
+            d.pop(table, None)
         return d
 
 

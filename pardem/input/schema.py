@@ -20,11 +20,12 @@ from .particles import check_particles, particles_from_file, particles_from_tabl
 from ..boundaries.wall_file import wall_disks_of
 from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
                     SceneError, SceneInfo, Species, TimeCfg)
-from .values import AUTO, BOOL, FLOAT, INT, INT_AUTO, REQ, STR, fail, rule_ok, show, value
+from .values import AUTO, BOOL, FLOAT, INT, INT_AUTO, OFF, REQ, STR, fail, rule_ok, show, value
+from .warnings_table import WarningsCfg
 
 
 KINDS = {"float": FLOAT, "int": INT, "bool": BOOL, "str": STR, "float | None": AUTO,
-         "int | None": INT_AUTO}
+         "int | None": INT_AUTO, "float | bool": OFF}
 
 
 def _schema(cls: type) -> dict[str, tuple[str, Any, str, str]]:
@@ -36,9 +37,10 @@ def _schema(cls: type) -> dict[str, tuple[str, Any, str, str]]:
 _TABLES = {name: _schema(cls) for name, cls in (
     ("scene", SceneInfo), ("geometry", Geometry), ("species", Species), ("contact", Contact),
     ("effects", Effects), ("time", TimeCfg), ("neighbors", Neighbors), ("output", OutputCfg),
-    ("averaging", AveragingCfg))}
+    ("averaging", AveragingCfg), ("warnings", WarningsCfg))}
 _TOP_KEYS = ("scene", "geometry", "species", "particles", "particles_file", "wall_disks",
-             "wall_disks_file", "contact", "effects", "time", "neighbors", "output", "averaging")
+             "wall_disks_file", "contact", "effects", "time", "neighbors", "output", "averaging",
+             "warnings")
 
 
 def _parse(raw: Any, table: str, label: str) -> dict[str, Any]:
@@ -57,7 +59,7 @@ def _parse(raw: Any, table: str, label: str) -> dict[str, Any]:
             out[key] = default
             continue
         v = out[key] = value(label, key, raw[key], kind, unit)
-        if rule and v is not None:
+        if rule and v is not None and v is not False:  # "auto" and "off" obey no rule
             ok, why = rule_ok(v, rule)
             if not ok:
                 raise fail(label, key, raw[key], why, unit)
@@ -89,7 +91,8 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
     if why:
         raise fail("[scene]", "name", info["name"], why)
     kind = info["kind"]
-    raw = {t: d.get(t, {}) for t in ("contact", "effects", "time", "neighbors", "output")}
+    raw = {t: d.get(t, {}) for t in ("contact", "effects", "time", "neighbors", "output",
+                                  "warnings")}
     pair_rows = None
     if isinstance(raw["contact"], dict) and "pair" in raw["contact"]:
         raw["contact"] = dict(raw["contact"])
@@ -151,7 +154,7 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
     return Scene(SceneInfo(**info), geometry, species, particles, Contact(**c), Effects(**e),
                  TimeCfg(**opt["time"]), Neighbors(**opt["neighbors"]),
                  OutputCfg(**opt["output"]), averaging, pairs, source,
-                 wall_disks_of(d, kind, particles, Path(base_dir)))
+                 wall_disks_of(d, kind, particles, Path(base_dir)), WarningsCfg(**opt["warnings"]))
 
 
 def _species(rows: list[Any]) -> tuple[Species, ...]:

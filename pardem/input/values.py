@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import math
 import numbers
+from dataclasses import MISSING, field
 from typing import Any
 
 import numpy as np
@@ -15,6 +16,15 @@ from .errors import SceneError
 
 REQ = object()  # marks a required key
 FLOAT, INT, BOOL, STR, AUTO, INT_AUTO = "float", "int", "bool", "str", "auto", "int-auto"
+OFF = "off"  # a number, or false to switch off what the number sets (a warning's threshold)
+
+
+def key(default: Any = MISSING, unit: str = "", rule: str = ""):
+    """A scene key: its default (none: required), unit and allowed values (">0", ">=5",
+    "a|b"); its kind comes from the annotation ("float | None" accepts "auto", "float | bool"
+    a number or false). The checks (schema.py) read these, so a key is declared once."""
+    meta = {"unit": unit, "rule": rule}
+    return field(metadata=meta) if default is MISSING else field(default=default, metadata=meta)
 
 
 def show(v: Any) -> str:
@@ -33,7 +43,8 @@ def is_num(v: Any) -> bool:
 
 
 def value(label: str, key: str, v: Any, kind: str, unit: str) -> Any:
-    """Type-check one value; ints become floats where floats are expected, "auto" -> None."""
+    """Type-check one value; ints become floats where floats are expected, "auto" -> None,
+    false stays false where a number may be switched off."""
     u = f" ({unit})" if unit else ""
     head = f"{label} {key} = {show(v)}:"
     if kind == BOOL:
@@ -50,12 +61,15 @@ def value(label: str, key: str, v: Any, kind: str, unit: str) -> Any:
         raise SceneError(f"{head} expected an integer{u}")
     if kind in (AUTO, INT_AUTO) and isinstance(v, str) and v == "auto":
         return None
+    if kind == OFF and v is False:
+        return False
     if kind == INT_AUTO:
         if isinstance(v, numbers.Integral) and not isinstance(v, (bool, np.bool_)):
             return int(v)
         raise SceneError(f'{head} expected an integer or "auto"{u}')
     if not is_num(v):
-        raise SceneError(f"{head} expected a number{u}" + (' or "auto"' if kind == AUTO else ""))
+        other = {AUTO: ' or "auto"', OFF: " or false (off)"}.get(kind, "")
+        raise SceneError(f"{head} expected a number{u}{other}")
     if not math.isfinite(float(v)):
         raise SceneError(f"{head} must be finite{u}")
     return float(v)

@@ -86,12 +86,12 @@ def breakdown(sim) -> str:
                       f"{d.describe()}):", *rows])
 
 
-def report(sim, since: list, end_step: int, progress: bool) -> None:
-    """The progress line (collective: kinetic energy and largest overlap); rank 0 logs and
-    shows it."""
+def report(sim, since: list, end_step: int, progress: bool, overlap: float) -> None:
+    """The progress line (collective: the kinetic energy; ``overlap``, the largest, is every
+    rank's already); rank 0 logs and shows it."""
     # the rate window runs from the end of the last report to the start of this one
     elapsed, steps = time.perf_counter() - since[0], sim.step - since[1]
-    e_kin, overlap = sim.kinetic_energy(), sim.max_overlap()  # collective
+    e_kin = sim.kinetic_energy()  # collective
     since[:] = time.perf_counter(), sim.step
     if sim.decomp.rank != 0:
         return

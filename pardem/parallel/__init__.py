@@ -73,6 +73,33 @@ def smallest_node_share(comm, amount: float) -> float:
     return comm.allreduce(share, op=MPI.MIN)
 
 
+def usable_cores() -> frozenset[int]:
+    """The cores this process may run on (its CPU affinity: a batch system's or a launcher's
+    binding; every core where the platform cannot say)."""
+    try:
+        return frozenset(os.sched_getaffinity(0))
+    except AttributeError:  # macOS, Windows
+        return frozenset(range(os.cpu_count() or 1))
+
+
+def most_crowded_node(comm) -> tuple[int, int]:
+    """(ranks, cores) of the node with the fewest cores per rank (collective): the ranks that
+    share its memory (``COMM_TYPE_SHARED``, so the ranks of other nodes do not count) and the
+    cores any of them may run on, the union of their affinities (ranks bound one to a core
+    count each core once). One process: (1, its cores)."""
+    mine = usable_cores()
+    if comm is None or comm.Get_size() == 1:
+        return 1, len(mine)
+    from mpi4py import MPI
+
+    node = comm.Split_type(MPI.COMM_TYPE_SHARED)
+    try:
+        here = node.Get_size(), len(frozenset().union(*node.allgather(mine)))
+    finally:
+        node.Free()
+    return max(comm.allgather(here), key=lambda rc: rc[0] / rc[1])
+
+
 def abort(comm, code: int = 1) -> None:
     """End every rank of ``comm`` (after an error on this one), so none waits forever. The
     short pause lets mpiexec's proxy forward what this rank just wrote to stderr: an immediate

@@ -19,7 +19,8 @@ from pardem.contact.normal import LAWS
 from pardem.contact.pairs import BOUNDARIES
 from pardem.input.pair_table import PAIR_KEYS, SCENE_KEYS
 from pardem.input.scene import (AveragingCfg, Contact, Effects, FreeParticles, Geometry, Neighbors,
-                                OutputCfg, PairLaw, SceneInfo, Species, TimeCfg, _PUNITS)
+                                OutputCfg, PairLaw, SceneInfo, Species, TimeCfg, WarningsCfg,
+                                _PUNITS)
 
 PAGE = Path(__file__).resolve().parents[2] / "docs" / "input.md"
 TABLES = (("[scene]", SceneInfo, "required"), ("[geometry]", Geometry, "couette scenes"),
@@ -27,9 +28,11 @@ TABLES = (("[scene]", SceneInfo, "required"), ("[geometry]", Geometry, "couette 
           ("[contact]", Contact, "optional"), ("[effects]", Effects, "optional"),
           ("[time]", TimeCfg, "optional"), ("[neighbors]", Neighbors, "optional"),
           ("[output]", OutputCfg, "optional"),
-          ("[averaging]", AveragingCfg, "optional: in-situ ring averaging of couette scenes"))
+          ("[averaging]", AveragingCfg, "optional: in-situ ring averaging of couette scenes"),
+          ("[warnings]", WarningsCfg, "optional: when a run warns (docs/warnings.md)"))
 KINDS = {"float": "number", "int": "integer", "bool": "true / false", "str": "string",
-         "float | None": 'number or "auto"', "int | None": 'integer or "auto"'}
+         "float | None": 'number or "auto"', "int | None": 'integer or "auto"',
+         "float | bool": "number or `false`"}
 
 INTRO = """# Input reference
 
