@@ -327,6 +327,16 @@ def physics_differences(ours: dict, theirs: dict) -> list[str]:
     return out
 
 
+def with_defaults(physics: dict) -> dict:
+    """A ``Scene.physics()`` dict with the keys it leaves out at their default (``_LATER``)
+    put back, so that two compare key by key."""
+    d = {t: dict(v) if isinstance(v, dict) else v for t, v in physics.items()}
+    for (table, key), default in _LATER.items():
+        if isinstance(d.get(table), dict):
+            d[table].setdefault(key, default)
+    return d
+
+
 _LATER = {("time", "integrator"): "verlet",
           **{("geometry", f"{ring}_{key}"): default for ring in ("inner", "outer")
              for key, default in (("wall_count", "auto"), ("wall_diameter", "auto"),
