@@ -138,6 +138,23 @@ def test_a_branch_with_another_omega_keeps_the_ring_angle(prepared, tmp_path):
     np.testing.assert_allclose(np.angle(np.exp(1j * turned)), -2.0 * 100 * sim.dt, rtol=1e-9)
 
 
+def test_a_restart_of_a_branch_with_another_omega_continues_it_bit_for_bit(prepared,
+                                                                          tmp_path):
+    """The ring's phase travels with the branch's checkpoints."""
+    folder, _ = prepared
+    sim = Simulation(cell(omega_inner=-2.0), out_dir=tmp_path / "b", branch=folder)
+    sim.run(end=0.2, progress=False)
+    sim.write_checkpoint(tmp_path / "mid.h5")
+    sim.run(end=0.25, progress=False)
+    again = Simulation(cell(omega_inner=-2.0), out_dir=tmp_path / "again",
+                       restart=tmp_path / "mid.h5")
+    again.run(end=0.25, progress=False)
+    a, b = again.checkpoint_state(), sim.checkpoint_state()
+    assert a[1]["ring_phase"] == b[1]["ring_phase"] != 0.0
+    for name in FIELDS:
+        np.testing.assert_array_equal(a[0][name], b[0][name], name)
+
+
 @pytest.mark.parametrize("change, message", [
     (dict(counts=(250, 40)), "300 free particles in the prepared run, 290 here"),
     (dict(counts=(250, 50)), r"\[\[species\]\] #0 \(small\) count is 260 in the prepared run, "
@@ -183,3 +200,11 @@ def test_the_command_line_branches_with_end(prepared, tmp_path, capsys):
     assert main(["run", str(scene), "--from", str(folder), "--out", str(tmp_path / "c"),
                  "--end", "0.1", "--quiet"]) == 2
     assert "does not lie after the prepared state's time 0.15 s" in capsys.readouterr().err
+
+
+def test_a_branch_that_averages_from_before_the_prepared_time_is_refused(prepared):
+    folder, _ = prepared
+    early = {**SHEARED, "start": 0.1}
+    with pytest.raises(SceneError, match=r"\[averaging\] start = 0.1 s lies before the prepared "
+                                         r"state's time 0.15 s"):
+        Simulation(cell(averaging=early), branch=folder)

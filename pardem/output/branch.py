@@ -146,11 +146,17 @@ def said_resets(written: tuple[str, ...], columns: tuple[str, ...], log) -> None
                 "at zero")
         elif there and not here:
             log(f"{what} dropped: {effect} is off in this branch")
-    normal = [c for c in columns if not c.startswith(("spring", "rolling", "eta"))]
-    missing = [c for c in normal if c not in written]
+    def normal(names):
+        return [c for c in names if not c.startswith(("spring", "rolling", "eta"))]
+
+    missing = [c for c in normal(columns) if c not in written]
     if missing:
         log(f"normal-law history ({', '.join(missing)}) reset: the prepared run's normal law "
             "keeps none; every contact's starts from zero")
+    dropped = [c for c in normal(written) if c not in columns]
+    if dropped:
+        log(f"normal-law history ({', '.join(dropped)}) dropped: this branch's normal law "
+            "keeps none")
     if "eta_x" in columns and "eta_x" not in written and "spring_x" in written:
         log("eta (total tangential displacement) starts as the spring: the prepared run did "
             "not track it (exact for contacts that have not slid)")
