@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import functools
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -102,7 +103,7 @@ class SimulationBuilder:
             self.ps, n_owned, n = rank_share(init, self.decomp, self.hist)
         else:
             head = None if branch is None else functools.partial(
-                branch_head, step_length=self.step_length, log=self.log)
+                branch_head, step_length=self.step_length, log=self._say)
             try:
                 got = restore(restart or branch, init, scene, self.dt, self.history_columns,
                               self.decomp, self.log, head)
@@ -165,6 +166,12 @@ class SimulationBuilder:
             self._early.append(text)
         elif self.decomp.rank == 0:
             log_line(self.out_dir, text)
+
+    def _say(self, text: str) -> None:
+        """``log`` and a line on stderr (rank 0): what a branch changed or could not keep."""
+        self.log(text)
+        if self.decomp.rank == 0:
+            sys.stderr.write(f"pardem: {text}\n")
 
     def breakdown(self) -> str:
         return breakdown(self)

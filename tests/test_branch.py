@@ -196,7 +196,8 @@ def test_the_command_line_branches_with_end(prepared, tmp_path, capsys):
     write_scene(cell({"mu": 0.3}), scene)
     assert main(["run", str(scene), "--from", str(folder), "--out", str(tmp_path / "b"),
                  "--end", "0.16", "--quiet"]) == 0
-    assert "branch from" in log_of(tmp_path / "b")
+    assert "changed: [contact] mu: 0.44 -> 0.3" in log_of(tmp_path / "b")
+    assert "changed: [contact] mu: 0.44 -> 0.3" in capsys.readouterr().err
     assert main(["run", str(scene), "--from", str(folder), "--out", str(tmp_path / "c"),
                  "--end", "0.1", "--quiet"]) == 2
     assert "does not lie after the prepared state's time 0.15 s" in capsys.readouterr().err
