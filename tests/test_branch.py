@@ -3,10 +3,11 @@ other material or drive from its state; what carries over, what is reset and sai
 refused. (The 2-rank branch: test_mpi.py.)"""
 
 import shutil
+from fractions import Fraction
 
 import numpy as np
 import pytest
-from helpers import couette_scene
+from helpers import K_N, M_SMALL, analytic_collision, couette_scene
 from test_restart import FIELDS
 
 from pardem.cli import main
@@ -153,6 +154,28 @@ def test_a_restart_of_a_branch_with_another_omega_continues_it_bit_for_bit(prepa
     assert a[1]["ring_phase"] == b[1]["ring_phase"] != 0.0
     for name in FIELDS:
         np.testing.assert_array_equal(a[0][name], b[0][name], name)
+
+
+def test_a_stiffer_branch_keeps_the_time_with_its_own_step(prepared, tmp_path):
+    """k_n x 2: dt follows the damped contact time of the lightest pair (t_c / 50, shortened
+    by up to 1 % to divide 10 ms); the prepared time 0.15 s is a whole number of the new
+    steps. From a checkpoint one old step later it is not: the branch starts at the nearest
+    new step and says so."""
+    folder, _ = prepared
+    old = Simulation(cell(), restart=folder)
+    stiff = Simulation(cell({"k_n": 2 * K_N}), out_dir=tmp_path / "a", branch=folder)
+    assert stiff.time == PREPARED and stiff.step * stiff.step_length == Fraction(3, 20)
+    ratio = analytic_collision(M_SMALL / 2, 2 * K_N)[0] / analytic_collision(M_SMALL / 2)[0]
+    assert 0.99 * ratio <= stiff.dt / old.dt <= ratio / 0.99
+    assert "[contact] k_n: 352.1 -> 704.2" in log_of(tmp_path / "a")
+    old.advance_steps(1)
+    old.write_checkpoint(tmp_path / "odd.h5")
+    later = Simulation(cell({"k_n": 2 * K_N}), out_dir=tmp_path / "b",
+                       branch=tmp_path / "odd.h5")
+    assert abs(later.time - old.time) <= 0.5 * later.dt and later.time != old.time
+    assert "is not a whole number of steps of the new dt" in log_of(tmp_path / "b")
+    later.advance_steps(200)
+    assert later.max_overlap() < 0.1
 
 
 @pytest.mark.parametrize("change, message", [
