@@ -9,16 +9,20 @@ Stage: set-up. The order matters and is the one a reader follows in ``__init__``
     memory check, placement            prepare_memory, initial_configuration (whole cell)
     decomposition                      the cut of the annulus among the ranks (one rank: serial)
     the in-situ averager               make_averager ([averaging]; None without)
-    this rank's rows                   rank_share, or restore from a checkpoint
+    this rank's rows                   rank_share, or restore from a checkpoint (restart:
+                                       the same scene; branch: other physics, branch.py)
     the output folder                  claim (after the checkpoint is read: a restart may
                                        write into the folder it came from)
     lists and forces                   the first neighbour build, then the forces at t
-                                       (a checkpoint's recorded forces instead, bit for bit)
+                                       (a checkpoint's recorded forces instead, bit for bit,
+                                       unless a branch changed the physics)
 """
 
 from __future__ import annotations
 
+import functools
 import math
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -34,22 +38,28 @@ from .core.state import Params, new_clock, new_pairs
 from .core.step import StepOptions, make_stepper
 from .core.timestep import resolve_step
 from .input.placement import initial_configuration, rank_share
-from .input.scene import Scene
+from .input.scene import Scene, SceneError
 from .output.averages import make_averager, resume
+from .output.branch import branch_head
 from .output.folder import FolderLock, claim
 from .output.progress import breakdown, log_line
 from .output.restart import put_recorded_forces, restore
 from .parallel import GHOST_MARGIN_SKINS, decomposition
-from .boundaries.walls import rings_of, wall_layout
+from .boundaries.walls import place_wall_disks, rings_of, wall_layout
 
 
 class SimulationBuilder:
     """The state of one scene's run, built in the order above, and the ways to edit it
-    between runs (``set_particles``, ``refresh``). ``Simulation`` adds the run loop."""
+    between runs (``set_particles``, ``refresh``). ``Simulation`` adds the run loop.
+    ``restart``: continue a checkpoint of this scene exactly; ``branch``: start from a
+    checkpoint of a prepared run with this scene's material and drive (output/branch.py)."""
 
     def __init__(self, scene: Scene, out_dir: str | Path | None = None,
                  restart: str | Path | None = None, comm=None, overwrite: bool = False,
-                 cut: str = "auto"):
+                 cut: str = "auto", branch: str | Path | None = None):
+        if restart is not None and branch is not None:
+            raise SceneError("--restart and --from: give one (--restart continues the same "
+                             "scene, --from branches a new run off a prepared state)")
         self.scene = scene
         self.out_dir = Path(out_dir) if out_dir is not None else None
         self._early: list[str] | None = []  # log lines before the folder is claimed (log)
@@ -87,17 +97,27 @@ class SimulationBuilder:
         self.clock = new_clock(init.n_free, init.radius.size, self.prm.rings.r_out0)
         # the in-situ averager ([averaging] table; None without), kept across run() calls
         self.rings = make_averager(scene, self._free_radii, self.decomp)
-        history, recorded = None, None
+        history, recorded, exact = None, None, True
         self._series = None  # the snapshot numbering (output/series.py), from the first run
         self._end_step = None  # the checkpoint's step if its snapshot is an end snapshot
-        if restart is None:  # this rank's rows only, built or read
+        if restart is None and branch is None:  # this rank's rows only, built or read
             self.ps, n_owned, n = rank_share(init, self.decomp, self.hist)
         else:
-            got = restore(restart, init, scene, self.dt, self.history_columns, self.decomp,
-                          self.log)
-            self.ps, n_owned, n, self.clock.step[0], history, recorded, averages, end = got
+            head = None if branch is None else functools.partial(
+                branch_head, step_length=self.step_length, log=self._say)
+            try:
+                got = restore(restart or branch, init, scene, self.dt, self.history_columns,
+                              self.decomp, self.log, head)
+            except SceneError as e:  # the checkpoint's checks name the option a restart has
+                if branch is None:
+                    raise
+                raise SceneError(str(e).replace("--restart", "--from", 1)) from e
+            self.ps, n_owned, n, self.clock.step[0], history, recorded, averages, end = got[:8]
             self._end_step = self.step if end else None
-            resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
+            self.prm = self.prm._replace(rings=self.prm.rings._replace(phase_in=got.phase))
+            exact = got.exact
+            if branch is None:
+                resume(self.rings, scene, self.dt, self.step, averages, restart, self.log)
         self.folder_lock = FolderLock(self.out_dir) if self.out_dir is not None else None
         # run files present when the folder was claimed (checked at the first run only)
         self._claimed = (claim(self.out_dir, self.decomp, scene, restart, overwrite,
@@ -114,11 +134,15 @@ class SimulationBuilder:
         self.pairs = new_pairs(4 * n + 64, max(n // 4, 64), self.hist)
         compile_ahead(self, history)  # parallel runs: the ranks share a cold compile
         self.rebuilder = Rebuilder(self)
+        if not exact:  # a branch's rings turn at its omega from the angle they had reached
+            place_wall_disks(self.ps, 0, n, self.clock_time, self.prm.rings, False)
         self.rebuilder.rebuild(history=history, rebalance=False)
-        if restart is None:
+        if restart is None and branch is None:
             self._compute_forces()
-        else:
+        elif exact:
             put_recorded_forces(self, *recorded)
+        else:
+            self._compute_forces(advance_history=False)
         reuse_freed_arrays()  # the set-up's peak is past; builds reuse their blocks (memory.py)
 
     # -- public state ----------------------------------------------------------------------
@@ -143,6 +167,12 @@ class SimulationBuilder:
             self._early.append(text)
         elif self.decomp.rank == 0:
             log_line(self.out_dir, text)
+
+    def _say(self, text: str) -> None:
+        """``log`` and a line on stderr (rank 0): what a branch changed or could not keep."""
+        self.log(text)
+        if self.decomp.rank == 0:
+            sys.stderr.write(f"pardem: {text}\n")
 
     def breakdown(self) -> str:
         return breakdown(self)
@@ -176,10 +206,16 @@ class SimulationBuilder:
         self.rebuilder.rebuild()
         self._compute_forces()
 
-    def _compute_forces(self) -> None:
+    def _compute_forces(self, advance_history: bool = True) -> None:
+        """The forces of the current state. ``advance_history=False``: the history is the
+        current state's already (a branch's first state, whose springs the prepared run
+        advanced to this step): the law sees a step of length 0, so the springs are only
+        capped at the (new) Coulomb limit and projected, not moved on by v_t dt."""
         n = int(self.clock.n_local[0])
         v2 = float((self.ps.v[:n] ** 2).sum(axis=1).max()) if n else 0.0
-        self.stepper.compute_forces(self.ps, self.pairs, self.clock, self.prm, self.decomp.halo,
+        prm = self.prm if advance_history else self.prm._replace(
+            law=self.prm.law._replace(dt=0.0))
+        self.stepper.compute_forces(self.ps, self.pairs, self.clock, prm, self.decomp.halo,
                                     self.decomp.max(v2))
 
     # -- neighbour lists ----------------------------------------------------------------------

@@ -1,5 +1,5 @@
-"""Command line: ``pardem run SCENE.toml [--out DIR] [--end T] [--restart CHECKPOINT]
-[--overwrite]``,
+"""Command line: ``pardem run SCENE.toml [--out DIR] [--end T] [--restart CHECKPOINT |
+--from CHECKPOINT] [--overwrite]``,
 ``pardem check SCENE.toml`` (what a scene will do, before it runs), ``pardem average DIR [...]``
 (ring averages from snapshots), ``pardem plot DIR [DIR ...]`` (the paper's figures),
 ``pardem render DIR`` (pictures), ``pardem warmup SCENE...`` (compile the kernels ahead of a
@@ -18,6 +18,7 @@ collective.
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import errno
 import shutil
 import sys
@@ -39,7 +40,13 @@ def main(argv: list[str] | None = None) -> int:
     run.add_argument("scene", help="scene file (TOML)")
     run.add_argument("--out", help="output folder (default: runs/<scene name>)")
     run.add_argument("--end", type=seconds, help="end time in s (default: the scene's [time] end)")
-    run.add_argument("--restart", help="checkpoint file (or run folder) to continue from")
+    start = run.add_mutually_exclusive_group()
+    start.add_argument("--restart", help="checkpoint file (or run folder) to continue from, "
+                       "exactly (the same scene)")
+    start.add_argument("--from", dest="branch", metavar="CHECKPOINT",
+                       help="checkpoint file (or run folder) of a prepared run to branch a new "
+                            "run from: its particles, time and contact history with this "
+                            "scene's material and drive ([contact], [effects], omega_inner)")
     run.add_argument("--overwrite", action="store_true",
                      help="replace the run in the output folder (refused otherwise, except a "
                           "restart of the same scene, which continues it)")
@@ -118,6 +125,9 @@ def main(argv: list[str] | None = None) -> int:
     out = Path(args.out or "runs")
     try:
         scene = load_scene(args.scene)
+        if args.branch is not None and args.end is not None:  # the branch checks the end
+            scene = dataclasses.replace(scene, time=dataclasses.replace(scene.time,
+                                                                         end=args.end))
         out = Path(args.out) if args.out else Path("runs") / scene.info.name
         on_root(comm, _check_writable, out)
         watch = CompileWatch(compile_label(scene, size_of(comm)), report=_say if root else None)

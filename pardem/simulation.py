@@ -47,8 +47,10 @@ class SimulationError(RuntimeError):
 
 class Simulation(SimulationBuilder, StateViews, RunOutput):
     """One scene's state and run loop: ``Simulation(scene, out_dir=None, restart=None,
-    comm=None, overwrite=False, cut="auto")``, ``run(end=None, progress=True)``,
-    ``advance_steps(n)``. ``out_dir`` must not hold another run unless ``overwrite``
+    comm=None, overwrite=False, cut="auto", branch=None)``, ``run(end=None, progress=True)``,
+    ``advance_steps(n)``. ``restart``: a checkpoint of this scene, continued exactly;
+    ``branch``: a prepared run's checkpoint, continued with this scene's material and drive
+    (output/branch.py). ``out_dir`` must not hold another run unless ``overwrite``
     (output/folder.py). ``cut``: how the annulus is cut among the ranks ("auto": the cut with
     the fewest ghosts; "sectors"; "RxA": R rings of A sectors); results do not depend on it.
 

@@ -171,6 +171,23 @@ def test_checkpoint_from_2_ranks_continues_bitwise_on_1_and_3(tmp_path):
         assert_same_state(ref, got, f"restart on {n} ranks vs uninterrupted 2 ranks")
 
 
+def test_a_branch_on_2_ranks_from_a_1_rank_preparation_equals_the_1_rank_branch(tmp_path):
+    """Prepared on one rank (compressed, then sheared); branched at another mu and omega, on 1
+    and on 2 ranks: the same bits (the branch's first forces are computed, not read)."""
+    scene = fast_shear_scene(tmp_path)
+    ckpt = tmp_path / "prepared.h5"
+    dump_state(scene, 3000, tmp_path / "prep.npz", 1, "--checkpoint-at", "2500", str(ckpt))
+    branch = tmp_path / "branch.toml"
+    write_scene(couette_scene(counts=(260, 40), name="branch", contact={"mu": 0.2},
+                              geometry={"inner_radius": 0.05, "outer_radius": 0.09,
+                                        "outer_start_radius": 0.11, "compression_time": 0.1,
+                                        "omega_inner": 5.0}), branch)
+    ref = dump_state(branch, 5000, tmp_path / "b1.npz", 1, "--from", str(ckpt))
+    got = dump_state(branch, 5000, tmp_path / "b2.npz", 2, "--from", str(ckpt))
+    assert got["migrated"] > 0 and np.abs(ref["pair_hist"]).max() > 0
+    assert_same_state(ref, got, "branch on 2 ranks vs 1")
+
+
 def test_a_failing_rank_aborts_the_job_quickly(tmp_path):
     scene = fast_shear_scene(tmp_path)
     proc = run_mpi([str(MPI_DIR / "fail_on_rank.py"), str(scene), str(tmp_path / "out")], 2,

@@ -25,7 +25,9 @@ class Rings(NamedTuple):
     """The two rings of a Couette scene (SI): r_in (m) and omega_in (rad/s, counter-clockwise
     positive) of the inner ring; r_out (m, final), r_out0 (m, at t = 0) and t_comp (s, the
     compression time) of the outer ring; flat_in, flat_out: whether the flat ring surface is a
-    contact surface (else only its wall disks are: ``WallLayout.flat``)."""
+    contact surface (else only its wall disks are: ``WallLayout.flat``); phase_in (rad): the
+    inner ring's angle is omega_in t + phase_in (0 but in a branch whose omega_in differs from
+    the prepared run's, which keeps the angle the ring had turned: output/branch.py)."""
 
     r_in: float = 0.0
     omega_in: float = 0.0
@@ -34,6 +36,7 @@ class Rings(NamedTuple):
     t_comp: float = 0.0
     flat_in: bool = True
     flat_out: bool = True
+    phase_in: float = 0.0
 
 
 def rings_of(g) -> Rings:
@@ -74,11 +77,14 @@ def place_wall_disks(ps, first, last, t, rings, settled):
     The disks of any other boundary do not move: they keep the place and the zero velocity
     they were given at set-up (registry.py)."""
     r_o, r_o_dot = outer_radius(t, rings)
-    c, s = math.cos(rings.omega_in * t), math.sin(rings.omega_in * t)
+    angle = rings.omega_in * t
+    if rings.phase_in != 0.0:  # only then: omega t + 0.0 would turn a -0.0 into +0.0
+        angle += rings.phase_in
+    c, s = math.cos(angle), math.sin(angle)
     for k in range(first, last):
         ex, ey = ps.e0[k, 0], ps.e0[k, 1]
         kind = ps.kind[k]
-        if kind == INNER_WALL:  # rotate e0 by omega_in t
+        if kind == INNER_WALL:  # rotate e0 by the ring's angle
             ux = ex * c - ey * s
             uy = ey * c + ex * s
             ps.x[k, 0] = rings.r_in * ux
@@ -86,7 +92,7 @@ def place_wall_disks(ps, first, last, t, rings, settled):
             ps.v[k, 0] = -rings.omega_in * rings.r_in * uy
             ps.v[k, 1] = rings.omega_in * rings.r_in * ux
             ps.omega[k] = rings.omega_in  # glued: turns with the ring
-            ps.theta[k] = rings.omega_in * t
+            ps.theta[k] = angle
             ps.w_pred[k] = rings.omega_in
         elif kind == OUTER_WALL and not settled:
             ps.x[k, 0] = r_o * ex

@@ -6,9 +6,10 @@ for its next half kick), the contact history keyed by (gid_lo, gid_hi) (``pair_l
 ``pair_hi``, ``pair_hist``; columns named in the attribute ``history_columns``), the applied
 forces of touching pairs (``force_lo``, ``force_hi``, ``pair_force`` [m,3]) and of ring
 contacts (``ring_force`` [n,3]); attributes: the step (time = step * dt), time, dt, the
-inner-ring angle, the scene fingerprint (a restart of a different scene is refused), whether
-the snapshot of this state is an end snapshot off the snapshot grid (``end_snapshot``: a
-continued run replaces it, ``series.py``). With
+inner-ring angle (``ring_angle``) and its phase (``ring_phase``: 0 but in a branch that
+changed omega_inner, ``branch.py``), the scene fingerprint (a restart of a different scene
+is refused), whether the snapshot of this state is an end snapshot off the snapshot grid
+(``end_snapshot``: a continued run replaces it, ``series.py``). With
 in-situ averaging, the ring samples so far (``rings_sums``, ``rings_times``,
 ``rings_inner_torque``; attribute ``rings_layout``: see ``averages.py``). Version 1
 files (pardem before the contact-model slots) are read too. The file is written as

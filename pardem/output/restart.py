@@ -63,7 +63,8 @@ def gather_state(sim) -> tuple[dict[str, np.ndarray], dict[str, object]] | None:
     arrays["force_lo"], arrays["force_hi"] = np.ascontiguousarray(forces["key"].T)
     arrays["pair_force"] = forces["force"]
     attrs = {"step": int(sim.clock.step[0]), "time": sim.time, "dt": sim.dt,
-             "ring_angle": sim.prm.rings.omega_in * sim.clock_time,
+             "ring_angle": sim.prm.rings.omega_in * sim.clock_time + sim.prm.rings.phase_in,
+             "ring_phase": sim.prm.rings.phase_in,
              "fingerprint": sim.scene.fingerprint(), "n_free": sim.n_free, "ranks": d.size,
              "scene_physics": json.dumps(sim.scene.physics(), sort_keys=True),
              "history_columns": ",".join(sim.history_columns),
@@ -86,7 +87,8 @@ class Restored(NamedTuple):
     forces of those gids)``, the ring samples (averages.ARRAYS and the attribute
     ``rings_layout``, where the checkpoint has them; for ``averages.resume``), and whether the
     snapshot of its state is an end snapshot off the grid (``series.py``; False in files of
-    pardem before it said)."""
+    pardem before it said), and the inner ring's phase (``walls.Rings.phase_in``) with, for a
+    branch, whether its physics is the prepared run's (``branch.py``: ``exact``)."""
 
     ps: Particles
     n_owned: int
@@ -96,16 +98,20 @@ class Restored(NamedTuple):
     forces: tuple
     averages: dict
     end_snapshot: bool
+    phase: float = 0.0
+    exact: bool = True
 
 
-def restore(path, init, scene, dt: float, columns: tuple[str, ...], decomp, log) -> Restored:
+def restore(path, init, scene, dt: float, columns: tuple[str, ...], decomp, log,
+            head_of=None) -> Restored:
     """This rank's share of the checkpoint at ``path`` (collective). Rank 0 checks that it
     belongs to the scene and reads the free particles' positions, from which the annulus is
     cut, and the ring samples; then each rank reads its own rows of every particle array and
     the pairs that touch them, ``CHUNK_ROWS`` rows at a time, so that no rank ever holds the
     whole cell. SceneError on every rank if the checkpoint belongs to another scene or is
-    damaged."""
-    head = decomp.bcast_call(_head, path, scene, dt, init, columns)
+    damaged. ``head_of``: rank 0's checks (``_head``'s arguments; a branch's:
+    ``branch.branch_head``)."""
+    head = decomp.bcast_call(head_of or _head, path, scene, dt, init, columns)
     if head.pop("no_eta"):
         log(f"restart from {path}: the checkpoint has no eta (total tangential displacement); "
             "it starts from the spring, exact for contacts that have not slid")
@@ -120,7 +126,7 @@ def restore(path, init, scene, dt: float, columns: tuple[str, ...], decomp, log)
     if message is not None:
         raise SceneError(message)
     return Restored(ps, n_owned, idx.size, head["step"], history if columns else None, forces,
-                    head["averages"], head["end_snapshot"])
+                    head["averages"], head["end_snapshot"], **head["branch"])
 
 
 def _head(path, scene, dt: float, init, columns: tuple[str, ...]) -> dict:
@@ -155,7 +161,8 @@ def _head(path, scene, dt: float, init, columns: tuple[str, ...]) -> dict:
                   and (arrays["pair_hist"].shape[0] or arrays["hist_wall"].shape[0]) > 0)
         return {"file": checkpoint_file(path), "step": int(attrs["step"]), "x_free": x_free,
                 "averages": averages, "no_eta": no_eta,
-                "end_snapshot": bool(attrs.get("end_snapshot", False))}
+                "end_snapshot": bool(attrs.get("end_snapshot", False)),
+                "branch": {"phase": float(attrs.get("ring_phase", 0.0))}}
 
 
 def _read_share(path, ps, idx: np.ndarray, columns: tuple[str, ...]):

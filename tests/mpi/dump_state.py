@@ -1,7 +1,7 @@
 """Run a scene for a number of steps on the ranks of COMM_WORLD and save the gathered state.
 
     mpiexec -n P python -m mpi4py tests/mpi/dump_state.py SCENE STEPS OUT.npz [--restart CKPT]
-        [--checkpoint-at STEP CKPT] [--grow-window] [--shared-limit DOUBLES] [--check-lists]
+        [--from CKPT] [--checkpoint-at STEP CKPT] [--grow-window] [--shared-limit DOUBLES] [--check-lists]
         [--no-room] [--cut auto|sectors|RxA] [--balance-threshold F]
 
 Rank 0 writes OUT.npz with every particle array and the springs (sorted by gid), plus the run's
@@ -92,6 +92,7 @@ def main():
     ap.add_argument("steps", type=int)
     ap.add_argument("out")
     ap.add_argument("--restart")
+    ap.add_argument("--from", dest="branch")
     ap.add_argument("--checkpoint-at", nargs=2)
     ap.add_argument("--grow-window", action="store_true")
     ap.add_argument("--shared-limit", type=int)
@@ -107,7 +108,8 @@ def main():
         Rebuilder.rebuild = checked_rebuild(comm)
     if args.no_room:
         Rebuilder.rebuild = cut_to_rows_in_use(comm)
-    sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm, cut=args.cut)
+    sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm, cut=args.cut,
+                     branch=args.branch)
     if args.balance_threshold is not None:
         sim.decomp.balance_threshold = args.balance_threshold
     if args.grow_window and sim.decomp.window is not None:  # None: messages (oversubscribed)
