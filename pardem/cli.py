@@ -136,7 +136,7 @@ def main(argv: list[str] | None = None) -> int:
                  f"cache, or compile on the first run of this set of effects ({watch.plan()})")
         with watch:  # numba compiles at first calls: in the set-up and the first steps
             sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm,
-                             overwrite=args.overwrite, cut=args.cut)
+                             overwrite=args.overwrite, cut=args.cut, branch=args.branch)
             if root:
                 compiled = (f" (compiled {watch.kernels} kernels in {watch.seconds:.0f} s)"
                             if watch.kernels else "")
