@@ -155,12 +155,13 @@ class CompileWatch(event.Listener):
 
     def __exit__(self, *exc) -> None:
         self._stop.set()
+        self._thread.join()
         event.unregister("numba:compile", self)
         if self.kernels and exc[0] is None:
             # a compile far shorter than the last was partial (most kernels came from the
             # cache): it would make the next estimate wrong
             if self.remember and self.seconds >= 0.5 * (self.expected or 0.0):
                 _remember(self.label, self.seconds)
-            if self.report and self.kernels > self.reported and self.seconds >= 1.0:
+            if self.report and self.kernels > self.reported:
                 self.report(f"pardem: compiled {self.kernels} kernels in {self.seconds:.0f} s, "
                             "cached for the next runs of this set of effects")
