@@ -31,8 +31,9 @@ table. Regions are in r~ = (r - R_i)/d~:
   torque through a ring plus this one (the body force of the momentum balance).
 - ring loads (boundary.LOADS, each with its block error ``_err``): both rings' torques on the
   particles, the particles' forces on them and their radial push. Torque balance of the
-  whole cell: torque_sum = T_in + T_out, torque_imbalance = torque_sum / T_in, the wall shear
-  stresses T_in/(2 pi h R_i^2) and -T_out/(2 pi h R_o^2); bottom_torque_cell (the bottom
+  whole cell: torque_sum = T_in + T_out (torque_sum_err: the block error of its per-sample
+  series), torque_imbalance = torque_sum / T_in, the wall shear stresses
+  T_in/(2 pi h R_i^2) and -T_out/(2 pi h R_o^2); bottom_torque_cell (the bottom
   friction's torque on all free disks) and angular_momentum_rate (dL/dt of the free disks,
   from the first and last snapshot of the window; NaN without two), and
   torque_balance_residual = T_in + T_out - bottom_torque_cell - dL/dt (0 up to the noise of
@@ -204,6 +205,9 @@ def ring_balance(run: dict) -> dict:
         out[name] = float(f.get(name, math.nan))
         out[name + "_err"] = float(f.get(name + "_err", math.nan))
     out.update(torque_balance(out, run["r_in"], run["r_out"], run["height"]))
+    loads = f["ring_loads_samples"]  # the sum's error from its own series (T_in, T_out correlate)
+    series = loads[:, LOADS.index("inner_torque")] + loads[:, LOADS.index("outer_torque")]
+    out["torque_sum_err"] = float(block_mean(series)[1]) if series.size else math.nan
     out["bottom_torque_cell"], out["angular_momentum_rate"] = cell_budget(run)
     residual = (out["torque_sum"] - out["bottom_torque_cell"] - out["angular_momentum_rate"])
     out["torque_balance_residual"] = residual
