@@ -316,7 +316,7 @@ def test_averages_of_a_run_restarted_on_2_ranks_equal_the_uninterrupted_runs(tmp
     """A serial run stopped inside the averaging window and continued from its checkpoint on
     2 ranks writes the uninterrupted serial run's ring averages: the samples before the
     checkpoint come from it bit for bit, the later ones agree to 1e-12 relative (summation
-    order), and so do the fields."""
+    order), and so do the fields; the loads on the rings are the same bits throughout."""
     from averaging.io import read_rings
     from pardem.cli import main
 
@@ -335,6 +335,8 @@ def test_averages_of_a_run_restarted_on_2_ranks_equal_the_uninterrupted_runs(tmp
     assert whole["times"].size == 7 and np.abs(whole["sums"]).max() > 0
     np.testing.assert_array_equal(cut["times"], whole["times"])
     np.testing.assert_array_equal(cut["sums"][:3], whole["sums"][:3])  # 0.15, 0.175, 0.2 s
+    # the ring loads: kept by the checkpoint, and the same bits on any number of ranks
+    np.testing.assert_array_equal(cut["ring_loads_samples"], whole["ring_loads_samples"])
     scale = np.abs(whole["sums"]).max(axis=(0, 1))
     assert np.all(np.abs(cut["sums"] - whole["sums"]) <= 1e-12 * scale + 1e-300)
     for key in ("nu", "v_phi", "sigma_rr", "F_rr", "mu_c"):

@@ -164,3 +164,35 @@ def torque_sum(sim) -> float:
     """T_in + T_out (N m) now, in situ."""
     loads = total_loads(sample_simulation(sim).wall_rows)
     return float(loads[LOADS.index("inner_torque")] + loads[LOADS.index("outer_torque")])
+
+
+def test_a_checkpoint_from_before_the_ring_loads_continues_with_its_inner_torques(tmp_path):
+    """A checkpoint written before pardem kept the ring loads holds the inner torque of its
+    samples only: a restart continues the averages with those torques and leaves the other
+    loads of those samples NaN (not made up); the samples after it carry all loads, equal
+    to an uninterrupted run's."""
+    import h5py
+
+    from averaging.io import read_rings
+    from pardem.cli import main
+    from pardem.input.scene_file import write_scene
+
+    g = {"inner_radius": R_IN, "outer_radius": R_OUT, "outer_start_radius": 0.11,
+         "compression_time": 0.1, "omega_inner": 10.0}
+    scene = couette_scene(counts=(260, 40), geometry=g, output={"checkpoint_interval": 0.1},
+                          averaging={"start": 0.15, "end": 0.25, "sample_interval": 0.025})
+    write_scene(scene, tmp_path / "s.toml")
+    for folder, end in (("whole", "0.25"), ("cut", "0.2")):
+        assert main(["run", str(tmp_path / "s.toml"), "--out", str(tmp_path / folder),
+                     "--end", end, "--quiet"]) == 0
+    checkpoint = tmp_path / "cut" / "checkpoint.h5"
+    with h5py.File(checkpoint, "r+") as h5:
+        del h5["rings_loads"]
+    assert main(["run", str(tmp_path / "s.toml"), "--out", str(tmp_path / "cut"), "--end",
+                 "0.25", "--restart", str(checkpoint), "--quiet"]) == 0
+    whole = read_rings(tmp_path / "whole")["ring_loads_samples"]
+    cut = read_rings(tmp_path / "cut")["ring_loads_samples"]
+    assert whole.shape == cut.shape == (5, len(LOADS)) and np.isfinite(whole).all()
+    np.testing.assert_array_equal(cut[:, 0], whole[:, 0])  # inner torque: every sample
+    assert np.isnan(cut[:3, 1:]).all()  # 0.15, 0.175, 0.2 s: from the old checkpoint
+    np.testing.assert_array_equal(cut[3:], whole[3:])
