@@ -103,6 +103,11 @@ class RingAverager:
                 out[key + "_err"] = block_error(np.array([p[key] for p in per]))
         return out, per
 
+    @property
+    def torques(self) -> list[float]:
+        """The inner ring's torque on the particles (N m) of every sample."""
+        return [float(loads[0]) for loads in self.loads]
+
     def load_table(self) -> np.ndarray:
         """The ring loads of every sample [samples, len(boundary.LOADS)]."""
         return np.array(self.loads, float).reshape(len(self.loads), len(LOADS))
