@@ -22,6 +22,7 @@ from typing import Callable, NamedTuple
 
 import numpy as np
 
+from .boundary import LOAD_UNITS, LOADS
 from .derived import RingView, eigen, exponential_fit, log_exponential_fit
 
 COMPONENTS = ("rr", "rphi", "phir", "phiphi")
@@ -183,7 +184,7 @@ FIELDS = (
     Field("fit_s_log", "1", "s of the log fit", lambda v: _fit(v, 1, log_exponential_fit)),
 )
 REGISTRY = {f.name: f for f in FIELDS}
-FIELD_UNITS = {"r": "m", "r_tilde": "1", "inner_torque": "N m",
+FIELD_UNITS = {"r": "m", "r_tilde": "1", **LOAD_UNITS,
                **{f.name: f.unit for f in FIELDS if not f.name.startswith("_")}}
 
 
@@ -199,14 +200,15 @@ def derived(s: np.ndarray, r: np.ndarray, dr: float, h: float, r_tilde: np.ndarr
     return {f.name: view.field(f.name) for f in FIELDS if not f.name.startswith("_")}
 
 
-def group_fields(sums: np.ndarray, torques: np.ndarray, groups: list[np.ndarray],
+def group_fields(sums: np.ndarray, loads: np.ndarray, groups: list[np.ndarray],
                  args: tuple) -> list[dict[str, np.ndarray]]:
-    """The fields (and the mean inner-ring torque) of each group of samples: the sums
-    [samples, rings, columns] averaged over the group's samples first, as for the time
-    average (fields are ratios formed after averaging)."""
+    """The fields (and the mean ring loads, boundary.LOADS) of each group of samples: the
+    sums [samples, rings, columns] and loads [samples, len(LOADS)] averaged over the group's
+    samples first, as for the time average (fields are ratios formed after averaging)."""
     out = []
     for g in groups:
         f = derived(sums[g].mean(axis=0), *args)
-        f["inner_torque"] = np.array(torques[g].mean())
+        for k, name in enumerate(LOADS):
+            f[name] = np.array(loads[g, k].mean())
         out.append(f)
     return out

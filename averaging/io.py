@@ -1,8 +1,9 @@
 """Ring averages on disk: ``rings.h5`` (fields with units and standard errors, the raw sums of
-every sample, sample times, the inner-ring torque per sample, the normalisations),
+every sample, sample times, the loads on both rings per sample, the normalisations),
 ``rings.csv`` (the per-ring fields), ``rings_blocks.csv`` (the fields of the consecutive
-blocks of samples the errors come from, with their times) and ``rings.vtu`` (the annulus mesh
-for ParaView, mesh.py); ``read_rings`` reads them back, ``tables.py`` as xarray and pandas.
+blocks of samples the errors come from, with their times), ``ring_loads.csv`` (the loads on
+the rings at every sample time, boundary.LOADS) and ``rings.vtu`` (the annulus mesh for
+ParaView, mesh.py); ``read_rings`` reads them back, ``tables.py`` as xarray and pandas.
 
 The CSV files open in any reader as they are: plain column names, one row per ring (per block
 and ring), and the units in a comment line above the header (``pandas.read_csv(path,
@@ -21,6 +22,7 @@ import numpy as np
 
 from pardem.sampling import size_of, writing
 
+from .boundary import LOADS
 from .fields import COLUMNS, FIELD_UNITS, UNITS
 from .mesh import write_rings_vtu
 
@@ -35,6 +37,8 @@ def write_rings(out_dir: Path, avg) -> None:
     keys = [k for k in f if np.ndim(f[k]) == 1]  # per-ring columns (fit scalars: h5 only)
     write_csv(out_dir / "rings.csv", keys, np.column_stack([f[k] for k in keys]))
     write_csv(out_dir / "rings_blocks.csv", *block_table(avg, per))
+    write_csv(out_dir / "ring_loads.csv", ["time", *LOADS],
+              np.column_stack([avg.times, avg.load_table()]))
     write_rings_vtu(out_dir / "rings.vtu", f, avg.r_in + np.arange(avg.n_rings + 1) * avg.dr)
 
 
@@ -62,6 +66,17 @@ def write_csv(path: Path, columns: list[str], rows: np.ndarray) -> None:
     np.savetxt(tmp, rows, delimiter=",", header=f"# units: {units}\n" + ",".join(columns),
                comments="")
     os.replace(tmp, path)
+
+
+def ring_load_samples(h5) -> np.ndarray:
+    """The ring loads of every sample [samples, len(LOADS)] from an open rings.h5 (NaN where
+    the file predates them: the inner torque alone, or nothing)."""
+    if "ring_loads" in h5:
+        return h5["ring_loads"][()]
+    loads = np.full((h5["times"].shape[0], len(LOADS)), np.nan)
+    if "inner_torque" in h5:
+        loads[:, 0] = h5["inner_torque"][()]
+    return loads
 
 
 def column_unit(column: str) -> str:
@@ -93,7 +108,11 @@ def _write_h5(tmp: Path, avg, f: dict, sums: np.ndarray) -> None:
         h5["sums"].attrs["columns"] = ",".join(COLUMNS)
         h5["sums"].attrs["units"] = ",".join(UNITS[c] for c in COLUMNS)
         h5.create_dataset("times", data=np.array(avg.times))
-        h5.create_dataset("inner_torque", data=np.array(avg.torques))
+        loads = avg.load_table()
+        h5.create_dataset("ring_loads", data=loads)
+        h5["ring_loads"].attrs["columns"] = ",".join(LOADS)
+        h5["ring_loads"].attrs["units"] = ",".join(FIELD_UNITS[k] for k in LOADS)
+        h5.create_dataset("inner_torque", data=loads[:, 0])  # what older readers look for
         h5["inner_torque"].attrs["unit"] = "N m"
 
 
@@ -105,6 +124,7 @@ def read_rings(run_dir: str | Path) -> dict[str, np.ndarray]:
         out["sums"] = h5["sums"][()]
         if "inner_torque" in h5:  # files written before the torque was recorded lack it
             out["inner_torque_samples"] = h5["inner_torque"][()]
+        out["ring_loads_samples"] = ring_load_samples(h5)
         if "reference_diameter" in h5.attrs:
             out["reference_diameter"] = float(h5.attrs["reference_diameter"])
         out["columns"] = tuple(h5["sums"].attrs["columns"].split(","))

@@ -254,7 +254,7 @@ def fabric_trace(runs, out):
 def torque_balance(runs, out):
     """Each run's torque through every ring relative to the torque its inner ring exerts (the
     runs' torques differ by orders of magnitude): 1 in steady state; the band is the inner
-    ring's relative error."""
+    ring's relative error; the dotted line the torque the outer ring takes back."""
     fig, ax = plt.subplots(figsize=(6, 4))
     ax.axhline(1.0, color="k", lw=0.8)
     for k, run in enumerate(runs):
@@ -272,6 +272,9 @@ def torque_balance(runs, out):
             ax.plot(f["r_tilde"], f["shear_torque_total"] / t, "-", lw=0.7, color=st["color"],
                     label=f"{run['label']}: with the kinetic stress, 2π h r² (σ + σ_kin)_φr")
         ax.axhspan(1 - e / abs(t), 1 + e / abs(t), color=st["color"], alpha=0.2, lw=0)
+        if math.isfinite(float(f.get("outer_torque", np.nan))):  # older files lack it
+            ax.axhline(-float(f["outer_torque"]) / t, ls=":", lw=0.8, color=st["color"],
+                       label=f"{run['label']}: torque the outer ring takes, −T_outer / T_inner")
     ax.set(xlabel="r̃", ylabel="torque through the ring / inner-ring torque",
            xlim=(0, _r_max(runs)), ylim=(-1, 3))
     ax.legend(fontsize=7)

@@ -29,6 +29,15 @@ table. Regions are in r~ = (r - R_i)/d~:
   sum of mu_b m g r v_phi/|v| over the moving ones, from the snapshots in the averaging
   window, averaged over the same rings: in steady shear the inner ring's torque equals the
   torque through a ring plus this one (the body force of the momentum balance).
+- ring loads (boundary.LOADS, each with its block error ``_err``): both rings' torques on the
+  particles, the particles' forces on them and their radial push. Torque balance of the
+  whole cell: torque_sum = T_in + T_out (torque_sum_err: the block error of its per-sample
+  series), torque_imbalance = torque_sum / T_in, the wall shear stresses
+  T_in/(2 pi h R_i^2) and -T_out/(2 pi h R_o^2); bottom_torque_cell (the bottom
+  friction's torque on all free disks) and angular_momentum_rate (dL/dt of the free disks,
+  from the first and last snapshot of the window; NaN without two), and
+  torque_balance_residual = T_in + T_out - bottom_torque_cell - dL/dt (0 up to the noise of
+  the time averages), torque_balance_relative = that over |T_in|.
 - mu_c_outer: median of mu_c/k'_n over 4 <= r~ <= 15 (the paper: mu_c grows with density;
   the median, because kappa_zr passes through zero in some rings); mu_c_band: the same over
   0.5 <= r~ <= 3 (the paper: smaller in the dilute band than in the dense outer part).
@@ -46,6 +55,7 @@ import numpy as np
 from pardem.sampling import (FREE, load_scene, normal_stiffness, read_snapshots,
                              volume_fraction)
 
+from .boundary import LOADS, torque_balance
 from .derived import exponential_fit, log_exponential_fit
 from .io import read_rings
 from .timeavg import ERROR_BLOCKS, block_error
@@ -86,6 +96,7 @@ def load_run(run_dir: str | Path, label: str | None = None, paper: str | None = 
             "scene": scene.info.name, "rings": rings,
             "k_n_2d": k_n / c.height, "k_t": k_t, "height": c.height, "d_ref": d_ref,
             "wall_speed": g.omega_inner * g.inner_radius, "r_in": g.inner_radius,
+            "r_out": g.outer_radius,
             "bottom": c.mu_bottom * c.gravity if scene.effects.bottom_friction else 0.0,
             "nu_bar": global_volume_fraction(scene), "n_samples": rings["times"].size,
             "window": (float(rings["times"][0]), float(rings["times"][-1]))}
@@ -144,8 +155,7 @@ def metrics(run: dict) -> dict:
         out[f"shear_torque_chi2{label}"] = float(np.sum(dev**2) / (dev.size - 1))
         out[f"shear_torque_within_2err{label}"] = float(np.mean(np.abs(dev) < 2))
     out["bottom_torque_mean"] = bottom_torque(run, f["r_tilde"][zone])
-    out["inner_torque"] = float(f["inner_torque"])
-    out["inner_torque_err"] = float(f.get("inner_torque_err", math.nan))
+    out.update(ring_balance(run))
     mu = f["mu_c"][_region(f, 4, 15)] / run["k_n_2d"]
     out["mu_c_outer"] = _mean(mu, median=True)
     out["mu_c_band"] = _mean(f["mu_c"][_region(f, 0.5, 3)] / run["k_n_2d"], median=True)
@@ -186,6 +196,44 @@ def bottom_torque(run: dict, r_tilde: np.ndarray) -> float:
         inside = np.searchsorted(r[order], edges, side="right")
         per_snapshot.append(np.concatenate([[0.0], np.cumsum(torque[order])])[inside].mean())
     return float(np.mean(per_snapshot)) if per_snapshot else math.nan
+
+
+def ring_balance(run: dict) -> dict:
+    """The ring loads with their errors and the cell's torque balance (module docstring)."""
+    f, out = run["rings"], {}
+    for name in LOADS:  # files written before the outer ring's loads were kept: NaN
+        out[name] = float(f.get(name, math.nan))
+        out[name + "_err"] = float(f.get(name + "_err", math.nan))
+    out.update(torque_balance(out, run["r_in"], run["r_out"], run["height"]))
+    loads = f["ring_loads_samples"]  # the sum's error from its own series (T_in, T_out correlate)
+    series = loads[:, LOADS.index("inner_torque")] + loads[:, LOADS.index("outer_torque")]
+    out["torque_sum_err"] = float(block_mean(series)[1]) if series.size else math.nan
+    out["bottom_torque_cell"], out["angular_momentum_rate"] = cell_budget(run)
+    residual = (out["torque_sum"] - out["bottom_torque_cell"] - out["angular_momentum_rate"])
+    out["torque_balance_residual"] = residual
+    out["torque_balance_relative"] = residual / abs(out["inner_torque"])
+    return out
+
+
+def cell_budget(run: dict) -> tuple[float, float]:
+    """(the bottom friction's torque on all free disks, N m, mean over the snapshots in the
+    averaging window; dL/dt of the free disks, N m, from the first and last of them), with L
+    = sum m (x × v) + (m d^2/8) omega. NaN without snapshots (dL/dt: without two)."""
+    folder = run["dir"].parent if run["dir"].name == "offline" else run["dir"]
+    lo, hi = run["window"]
+    snaps = [s for s in read_snapshots(folder) if lo <= s["time"] <= hi] if (
+        folder / "snapshots").is_dir() else []
+    if not snaps:
+        return math.nan, math.nan
+    bottom = bottom_torque(run, [(run["r_out"] - run["r_in"]) / run["d_ref"]])
+    momenta = []
+    for snap in (snaps[0], snaps[-1]):
+        free = snap["kind"] == FREE
+        x, v, m = snap["position"][free], snap["velocity"][free], snap["mass"][free]
+        spin = m * (2 * snap["radius"][free]) ** 2 / 8 * snap["omega"][free]
+        momenta.append(math.fsum(m * (x[:, 0] * v[:, 1] - x[:, 1] * v[:, 0])) + math.fsum(spin))
+    span = snaps[-1]["time"] - snaps[0]["time"]
+    return bottom, (momenta[1] - momenta[0]) / span if span > 0 else math.nan
 
 
 def ring_torques(run: dict, kinetic: bool = False) -> np.ndarray:

@@ -16,9 +16,9 @@ from typing import NamedTuple
 
 import numpy as np
 
-from pardem.sampling import INNER_WALL, SceneError
+from pardem.sampling import SceneError
 
-from .boundary import inner_ring_torque, torque_on
+from .boundary import LOADS, pair_rows, snapshot_rows, surface_rows
 
 
 class Sample(NamedTuple):
@@ -26,8 +26,9 @@ class Sample(NamedTuple):
     contacts of particle p in rows start[p]:start[p+1] of normal [m,2], overlap [m] (m),
     force [m,2] (N, on p), tangential [m,2] (m: the contact's tangential history t, so that the
     contact displacement is Delta = delta n - t; the elastic spring xi by default, the total
-    tangential displacement eta of eq. 1.3 with [averaging] displacement = "eta"); inner_torque (N m): the torque the
-    inner ring exerts on these particles (this rank's share)."""
+    tangential displacement eta of eq. 1.3 with [averaging] displacement = "eta"); wall_rows
+    [k, len(boundary.LOADS)]: the shares of these particles' ring contacts in the loads on
+    the rings (boundary.load_rows; added over all ranks by boundary.total_loads)."""
 
     x: np.ndarray
     v: np.ndarray
@@ -39,7 +40,7 @@ class Sample(NamedTuple):
     overlap: np.ndarray
     force: np.ndarray
     tangential: np.ndarray
-    inner_torque: float
+    wall_rows: np.ndarray
 
     @property
     def particles(self) -> tuple:
@@ -56,18 +57,21 @@ def empty_sample() -> Sample:
     """A sample without particles or contacts, with the array types of every other (what
     ``pardem.compile_ahead`` compiles the ring sums for)."""
     rows, pairs = np.zeros(0), np.zeros((0, 2))
-    return Sample(pairs, pairs, rows, rows, rows, np.zeros(1, np.int64), pairs, rows, pairs,
-                  pairs, 0.0)
+    return from_contacts(pairs, pairs, rows, rows, rows, np.zeros(0, np.int64), pairs, rows,
+                         pairs, pairs)
 
 
 def from_contacts(x, v, omega, radius, mass, owner, normal, overlap, force, tangential,
-                  inner_torque: float) -> Sample:
-    """Build a Sample from per-contact rows already oriented towards ``owner`` (particle index)."""
+                  wall_rows: np.ndarray | None = None) -> Sample:
+    """Build a Sample from per-contact rows already oriented towards ``owner`` (particle
+    index); ``wall_rows``: the ring contacts' shares of the ring loads (default: none)."""
+    if wall_rows is None:
+        wall_rows = np.zeros((0, len(LOADS)))
     order = np.argsort(owner, kind="stable")
     start = np.zeros(radius.size + 1, np.int64)
     np.cumsum(np.bincount(owner, minlength=radius.size), out=start[1:])
     return Sample(x, v, omega, radius, mass, start, normal[order], overlap[order],
-                  force[order], tangential[order], inner_torque)
+                  force[order], tangential[order], wall_rows)
 
 
 DISPLACEMENTS = {"eta": "displacement", "spring": "spring"}
@@ -117,23 +121,15 @@ def sample_simulation(sim) -> Sample:
     sl = slice(0, n_owned)
     return from_contacts(rows["x"][sl], rows["v"][sl], rows["omega"][sl], rows["radius"][sl],
                          rows["mass"][sl], owner, normal, overlap, force, tangential,
-                         _inner_torque(rows, t, i, j, n_owned, ring))
+                         _wall_rows(rows, t, i, j, n_owned, ring))
 
 
-def _inner_torque(rows: dict, t: dict, i, j, n_owned: int, ring: dict | None) -> float:
-    """Torque of the inner ring on this rank's particles: their contacts with inner wall disks
-    (a wall disk is always the higher-gid partner j) and with the flat inner surface."""
-    on = (i < n_owned) & (rows["kind"][j] == INNER_WALL)
-    f = t["normal_force"][on, None] * t["normal"][on] + t["tangential_force"][on]
-    p = i[on]
-    torque = torque_on(rows["x"][p], rows["radius"][p], t["normal"][on], t["overlap"][on], f)
-    if ring is not None:
-        sel = ring["ring"] == 1
-        p = ring["index"][sel]
-        f = ring["normal_force"][sel, None] * ring["normal"][sel] + ring["tangential_force"][sel]
-        torque += torque_on(rows["x"][p], rows["radius"][p], ring["normal"][sel],
-                            ring["overlap"][sel], f)
-    return torque
+def _wall_rows(rows: dict, t: dict, i, j, n_owned: int, ring: dict | None) -> np.ndarray:
+    """The ring contacts' shares of the ring loads for this rank's particles: their contacts
+    with wall disks and with the flat ring surfaces."""
+    x, radius = rows["x"], rows["radius"]
+    return np.vstack([pair_rows(x, radius, rows["kind"], t, i, j, i < n_owned),
+                      surface_rows(x, radius, ring, None if ring is None else ring["index"])])
 
 
 def snapshot_sample(snap: dict, displacement: str = "spring") -> Sample:
@@ -157,4 +153,4 @@ def snapshot_sample(snap: dict, displacement: str = "spring") -> Sample:
         raise SceneError(f"snapshot at t = {snap['time']} s: {e}") from None
     return from_contacts(snap["position"][:n], snap["velocity"][:n], snap["omega"][:n],
                          snap["radius"][:n], snap["mass"][:n], owner, normal, overlap, force,
-                         tangential, inner_ring_torque(snap, c, ring))
+                         tangential, snapshot_rows(snap, c, ring))

@@ -16,11 +16,11 @@ from pathlib import Path
 import h5py
 import numpy as np
 
+from .boundary import LOAD_DESCRIPTIONS
 from .fields import FIELDS, group_fields
-from .io import column_unit
+from .io import column_unit, ring_load_samples
 
-DESCRIPTIONS = {"r": "ring centre radius", "r_tilde": "(r - R_i) / d_ref",
-                "inner_torque": "torque of the inner ring on the particles",
+DESCRIPTIONS = {"r": "ring centre radius", "r_tilde": "(r - R_i) / d_ref", **LOAD_DESCRIPTIONS,
                 "time": "mean time of the samples averaged",
                 **{f.name: f.definition for f in FIELDS if not f.name.startswith("_")}}
 
@@ -29,7 +29,7 @@ def ring_dataset(run_dir: str | Path, every: int | None = None):
     """The ring fields of ``run_dir/rings.h5`` as an xarray.Dataset.
 
     ``every=None``: the time average, dims ``ring``; each field ``F`` with its standard error
-    ``F_err``; profile fits (fit_v0, fit_s, ...) and the inner torque as scalars.
+    ``F_err``; profile fits (fit_v0, fit_s, ...) and the ring loads (boundary.LOADS) as scalars.
     ``every=n``: time-resolved, dims ``time`` x ``ring``: the fields of each run of n
     consecutive samples (a last, shorter run included), ``time`` their mean sample time (s).
     Coordinates ``r`` (m) and ``r_tilde`` along ``ring``; attributes ``unit`` and
@@ -40,7 +40,7 @@ def ring_dataset(run_dir: str | Path, every: int | None = None):
         stored = {k: v[()] for k, v in h5["fields"].items()}
         layout = {k: (v.item() if hasattr(v, "item") else v) for k, v in h5.attrs.items()}
         sums, times = h5["sums"][()], h5["times"][()]
-        torques = h5["inner_torque"][()] if "inner_torque" in h5 else np.full(len(times), np.nan)
+        loads = ring_load_samples(h5)
     r, r_tilde = stored.pop("r"), stored.pop("r_tilde")
     coords = {"ring": np.arange(r.size), "r": ("ring", r), "r_tilde": ("ring", r_tilde)}
     if every is None:
@@ -55,7 +55,7 @@ def ring_dataset(run_dir: str | Path, every: int | None = None):
                   for k in range(0, len(times), int(every))]
         args = (r, layout["ring_width"], layout["height"], r_tilde, layout["k_n_2d"],
                 layout["wall_speed"])
-        per = group_fields(sums, torques, groups, args)
+        per = group_fields(sums, loads, groups, args)
         coords["time"] = np.array([times[g].mean() for g in groups])
         data = {k: (("time", "ring") if np.ndim(v) else ("time",), np.array([p[k] for p in per]))
                 for k, v in per[0].items()}
@@ -72,7 +72,7 @@ def ring_dataset(run_dir: str | Path, every: int | None = None):
 def ring_frame(run_dir: str | Path, every: int | None = None):
     """The per-ring fields of ``ring_dataset(run_dir, every)`` as a tidy pandas.DataFrame: one
     row per ring (per time and ring when time-resolved), one column per field, with ``ring``,
-    ``r``, ``r_tilde`` (and ``time``) as columns; scalars (fits, torque) stay in the dataset.
+    ``r``, ``r_tilde`` (and ``time``) as columns; scalars (fits, ring loads) stay in the dataset.
     The units are in ``frame.attrs["units"]``."""
     _need("pandas")
     ds = ring_dataset(run_dir, every)

@@ -14,6 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
+from .boundary import LOADS, summary, total_loads
 from .fields import N_COLUMNS, group_fields
 from .io import write_rings
 from .sample import Sample, sample_simulation
@@ -41,7 +42,7 @@ class RingAverager:
         self.k_n, self.omega_in = k_n, omega_in
         self.samples: list[np.ndarray] = []
         self.times: list[float] = []
-        self.torques: list[float] = []  # inner ring on the particles, N m, per sample
+        self.loads: list[np.ndarray] = []  # per sample: boundary.LOADS (N m, N)
 
     def sample(self, sim) -> None:
         """Add the ring sums of the simulation's current state (collective under MPI)."""
@@ -52,9 +53,10 @@ class RingAverager:
         arguments = self.sum_arguments(s)
         accumulate(*arguments)
         local = arguments[-1]
-        sums, scalars = reduce_sums(local, np.array([s.inner_torque]), self.reducer)
+        sums, _ = reduce_sums(local, np.zeros(0), self.reducer)
+        rows = s.wall_rows if self.reducer is None else self.reducer.join(s.wall_rows)
         self.samples.append(sums)
-        self.torques.append(float(scalars[0]))
+        self.loads.append(total_loads(rows))
         self.times.append(time)
 
     def sum_arguments(self, s: Sample) -> tuple:
@@ -90,16 +92,31 @@ class RingAverager:
         """``fields()`` and the fields of each block (``blocks``) its errors come from."""
         if not self.samples:
             raise ValueError("no samples taken")
-        stack, torques = np.array(self.samples), np.array(self.torques)
+        stack, loads = np.array(self.samples), self.load_table()
         args = self.field_arguments()
-        mean = group_fields(stack, torques, [np.arange(len(stack))], args)[0]
+        mean = group_fields(stack, loads, [np.arange(len(stack))], args)[0]
         out = {"r": args[0], "r_tilde": args[3]}
-        per = group_fields(stack, torques, self.blocks(), args)
+        per = group_fields(stack, loads, self.blocks(), args)
         for key, value in mean.items():
             out[key] = value
             if len(per) > 1:
                 out[key + "_err"] = block_error(np.array([p[key] for p in per]))
         return out, per
+
+    @property
+    def torques(self) -> list[float]:
+        """The inner ring's torque on the particles (N m) of every sample."""
+        return [float(loads[0]) for loads in self.loads]
+
+    def load_table(self) -> np.ndarray:
+        """The ring loads of every sample [samples, len(boundary.LOADS)]."""
+        return np.array(self.loads, float).reshape(len(self.loads), len(LOADS))
+
+    def summary(self, r_out: float) -> str:
+        """The time-averaged ring loads and their torque balance in one line (outer ring at
+        ``r_out`` m)."""
+        mean = dict(zip(LOADS, self.load_table().mean(axis=0)))
+        return summary(mean, self.r_in, r_out, self.height, len(self.loads))
 
     def write(self, out_dir: str | Path) -> None:
         """rings.h5 (fields, errors, raw sums per sample), rings.csv and rings.vtu; atomic."""

@@ -9,8 +9,8 @@ averaging, and a reader sees in one place what the averaging assumes about a run
   ``ring_width_problem``, ``normal_stiffness`` (k'_n's stiffness), ``resolve_dt`` and
   ``volume_fraction``;
 - which steps are samples: ``sample_range``, ``is_sample_step``;
-- particles and contacts as written: ``read_snapshots``, the kinds ``FREE`` and
-  ``INNER_WALL``;
+- particles and contacts as written: ``read_snapshots``, the kinds ``FREE``,
+  ``INNER_WALL`` and ``OUTER_WALL``;
 - how to write: ``writing`` and ``size_of`` (atomic files) and ``JIT`` (numba's options,
   so that averaging kernels share pardem's cache).
 """
@@ -26,11 +26,11 @@ from .output.writers import is_sample_step, sample_range
 from .core.scales import normal_stiffness
 from .input.scene_file import load_scene
 from .input.schema import ring_width_problem
-from .core.state import FREE, INNER_WALL
+from .core.state import FREE, INNER_WALL, OUTER_WALL
 from .core.timestep import resolve_dt
 
-__all__ = ["FREE", "INNER_WALL", "JIT", "SceneError", "is_sample_step", "load_scene",
-           "normal_stiffness", "read_snapshots", "resolve_dt", "ring_width",
+__all__ = ["FREE", "INNER_WALL", "JIT", "OUTER_WALL", "SceneError", "is_sample_step",
+           "load_scene", "normal_stiffness", "read_snapshots", "resolve_dt", "ring_width",
            "ring_width_problem", "sample_range", "size_of", "volume_fraction", "writing"]
 
 

@@ -130,7 +130,7 @@ def hex_ring_sums(a, delta, h, k_n, r0, dr, exact):
     x, p, n = hex_packing(a, delta, 0.1, 0.16)
     cnt = x.shape[0]
     smp = from_contacts(x, np.zeros_like(x), np.zeros(cnt), np.full(cnt, a), np.ones(cnt),
-                        p, n, np.full(p.size, delta), k_n * delta * n, np.zeros((p.size, 2)), 0.0)
+                        p, n, np.full(p.size, delta), k_n * delta * n, np.zeros((p.size, 2)))
     s = np.zeros((int(0.06 / dr), N_COLUMNS))
     accumulate(smp.particles, smp.contacts, (h, r0, dr, EXACT if exact else SLICE), s)
     return s
@@ -189,7 +189,7 @@ def test_two_contact_case_by_hand():
     force = k_n * np.array([d1, d2])[:, None] * normal - k_t * spring
     smp = from_contacts(np.array([[0.1, 0.0]]), np.array([[0.0, 0.02]]), np.array([0.5]),
                         np.array([a]), np.array([1.0]), np.array([0, 0]), normal,
-                        np.array([d1, d2]), force, spring, 0.0)
+                        np.array([d1, d2]), force, spring)
     s = np.zeros((1, N_COLUMNS))
     accumulate(smp.particles, smp.contacts, (h, 0.05, 0.1, EXACT), s)
     s = dict(zip(COL, s[0]))
@@ -225,7 +225,7 @@ def test_ring_without_contacts_gives_nan_strain_not_a_crash():
     x = np.array([[0.1, 0.0], [0.0, 0.13]])
     smp = from_contacts(x, np.array([[0.0, 0.01], [0.0, 0.0]]), np.zeros(2), np.full(2, a),
                         np.ones(2), np.array([1, 1]), np.array([[0.0, -1.0], [1.0, 0.0]]),
-                        np.full(2, 1e-5), np.zeros((2, 2)), np.zeros((2, 2)), 0.0)
+                        np.full(2, 1e-5), np.zeros((2, 2)), np.zeros((2, 2)))
     s = np.zeros((12, N_COLUMNS))
     accumulate(smp.particles, smp.contacts, (h, 0.095, 0.0035, SLICE), s)
     r = 0.095 + (np.arange(12) + 0.5) * 0.0035
@@ -260,9 +260,10 @@ def test_in_situ_and_offline_averaging_agree(tmp_path):
     scale = np.abs(live["sums"]).max(axis=(0, 1))
     assert np.all(np.abs(live["sums"] - offline["sums"]) <= 1e-12 * scale)
     assert np.abs(live["sums"][:, :, COL["curv_r"]]).max() > 0  # springs and wall contacts in
-    # inner-ring torque: in situ from each rank's contact table, offline from the snapshot's
-    np.testing.assert_allclose(live["inner_torque_samples"], offline["inner_torque_samples"],
-                               rtol=1e-12)
+    # loads on the rings: in situ from the contact tables, offline from the snapshot's, each
+    # contact's share added correctly rounded: the same bits
+    np.testing.assert_array_equal(live["ring_loads_samples"], offline["ring_loads_samples"])
+    np.testing.assert_array_equal(live["inner_torque_samples"], offline["inner_torque_samples"])
     assert np.all(live["inner_torque_samples"] > 0)
 
 

@@ -316,7 +316,7 @@ def test_averages_of_a_run_restarted_on_2_ranks_equal_the_uninterrupted_runs(tmp
     """A serial run stopped inside the averaging window and continued from its checkpoint on
     2 ranks writes the uninterrupted serial run's ring averages: the samples before the
     checkpoint come from it bit for bit, the later ones agree to 1e-12 relative (summation
-    order), and so do the fields."""
+    order), and so do the fields; the loads on the rings are the same bits throughout."""
     from averaging.io import read_rings
     from pardem.cli import main
 
@@ -335,6 +335,8 @@ def test_averages_of_a_run_restarted_on_2_ranks_equal_the_uninterrupted_runs(tmp
     assert whole["times"].size == 7 and np.abs(whole["sums"]).max() > 0
     np.testing.assert_array_equal(cut["times"], whole["times"])
     np.testing.assert_array_equal(cut["sums"][:3], whole["sums"][:3])  # 0.15, 0.175, 0.2 s
+    # the ring loads: kept by the checkpoint, and the same bits on any number of ranks
+    np.testing.assert_array_equal(cut["ring_loads_samples"], whole["ring_loads_samples"])
     scale = np.abs(whole["sums"]).max(axis=(0, 1))
     assert np.all(np.abs(cut["sums"] - whole["sums"]) <= 1e-12 * scale + 1e-300)
     for key in ("nu", "v_phi", "sigma_rr", "F_rr", "mu_c"):
@@ -345,25 +347,31 @@ def test_averages_of_a_run_restarted_on_2_ranks_equal_the_uninterrupted_runs(tmp
 
 def test_ring_sums_do_not_depend_on_the_number_of_ranks(tmp_path):
     """In-situ averaging: every rank sums its owned particles, one Allreduce per sample; the
-    totals of 1, 2 and 3 ranks agree to 1e-12 relative (only the summation order differs)."""
+    totals of 1, 2 and 3 ranks agree to 1e-12 relative (only the summation order differs).
+    The loads on the rings are the same bits on any number of ranks."""
+    from averaging.boundary import LOADS
     from averaging.io import read_rings
     from averaging.fields import COL
 
     scene = fast_shear_scene(tmp_path, averaging={"start": 0.15, "end": 0.3,
                                                   "sample_interval": 0.05,
                                                   "ring_width": 0.9275e-3})
-    sums, torques = {}, {}
+    sums, torques, loads = {}, {}, {}
     for n in (1, 2, 3):
         run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / f"r{n}"),
                  "--end", "0.31", "--quiet"], n, module=False)
         rings = read_rings(tmp_path / f"r{n}")
         sums[n], torques[n] = rings["sums"], rings["inner_torque_samples"]
+        loads[n] = rings["ring_loads_samples"]
     assert sums[1].shape[0] == 4  # samples at 0.15, 0.2, 0.25, 0.3 s
     assert np.abs(sums[1][:, :, COL["stress_rr"]]).max() > 0  # the cell is loaded
     scale = np.abs(sums[1]).max(axis=(0, 1))  # per column
     for n in (2, 3):
         np.testing.assert_allclose(sums[n], sums[1], rtol=0, atol=1e-12 * scale.max())
         assert np.all(np.abs(sums[n] - sums[1]) <= 1e-12 * scale + 1e-300)
-        # the inner-ring torque travels in the same Allreduce
-        np.testing.assert_allclose(torques[n], torques[1], rtol=1e-12)
+        # the loads on the rings: every contact's share, added correctly rounded (fsum)
+        np.testing.assert_array_equal(loads[n], loads[1])
+        np.testing.assert_array_equal(torques[n], torques[1])
     assert np.all(torques[1] > 0)  # the ring drives the packing
+    outer = loads[1][:, LOADS.index("outer_torque")]
+    assert np.all(outer < 0) and np.all(loads[1][:, LOADS.index("outer_radial_force")] > 0)

@@ -28,7 +28,7 @@ def _gas(v_polar: np.ndarray) -> "Sample":  # noqa: F821
     v = v_polar[:, :1] * er + v_polar[:, 1:] * ephi
     none = np.zeros(0, np.int64)
     return from_contacts(x, v, np.zeros(n), np.full(n, A), np.full(n, M), none,
-                         np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)), 0.0)
+                         np.zeros((0, 2)), np.zeros(0), np.zeros((0, 2)), np.zeros((0, 2)))
 
 
 def test_kinetic_stress_of_a_dilute_gas_is_the_velocity_covariance():

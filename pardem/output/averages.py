@@ -21,9 +21,12 @@ from ..sampling import ring_width
 from ..core.scales import normal_stiffness
 from .writers import sample_steps
 
-ARRAYS = ("rings_sums", "rings_times", "rings_inner_torque")
+ARRAYS = ("rings_sums", "rings_times", "rings_inner_torque", "rings_loads")
 """Checkpoint datasets: the sums of every sample [samples, rings, columns] (averaging/fields.py
-names the columns), their times (s) and the inner ring's torque on the particles (N m)."""
+names the columns), their times (s), the inner ring's torque on the particles (N m) and the
+loads on both rings [samples, loads] (averaging/boundary.py's LOADS; checkpoints written
+before pardem kept them hold the inner torque only, and the other loads of their samples
+stay NaN)."""
 
 # a layout entry -> the scene key a user would change to alter it
 _KEYS = {"ring_width": "[averaging] ring_width", "weighting": "[averaging] weighting",
@@ -68,8 +71,9 @@ def checkpoint_part(avg, scene) -> tuple[dict[str, np.ndarray], dict[str, str]]:
     from averaging.fields import N_COLUMNS
 
     sums = np.array(avg.samples, float).reshape(len(avg.samples), avg.n_rings, N_COLUMNS)
+    loads = avg.load_table()
     arrays = {"rings_sums": sums, "rings_times": np.array(avg.times, float),
-              "rings_inner_torque": np.array(avg.torques, float)}
+              "rings_inner_torque": loads[:, 0].copy(), "rings_loads": loads}
     return arrays, {"rings_layout": json.dumps(layout(avg, scene), sort_keys=True)}
 
 
@@ -110,12 +114,13 @@ def resume(avg, scene, dt: float, step: int, saved: dict, path, log) -> None:
                 "snapshots offline with other settings (pardem average)")
     sums = np.asarray(saved["rings_sums"], float)
     times = np.asarray(saved["rings_times"], float)
-    torques = np.asarray(saved["rings_inner_torque"], float)
+    n_loads = avg.load_table().shape[1]
+    loads = _loads(saved, n_loads)
     if (sums.ndim != 3 or sums.shape[1:] != (avg.n_rings, len(ours["columns"].split(",")))
-            or times.shape != (sums.shape[0],) or torques.shape != times.shape
+            or times.shape != (sums.shape[0],) or loads.shape != (times.size, n_loads)
             or not np.isfinite(times).all()):
         raise SceneError(f"--restart {path}: corrupted checkpoint: ring samples of shape "
-                         f"{sums.shape}, times {times.shape}, torques {torques.shape}")
+                         f"{sums.shape}, times {times.shape}, ring loads {loads.shape}")
     steps = np.rint(times / dt).astype(np.int64)
     if not np.array_equal(steps, wanted):
         def span(s):
@@ -128,6 +133,17 @@ def resume(avg, scene, dt: float, step: int, saved: dict, path, log) -> None:
             "or average the snapshots offline (pardem average)")
     avg.samples = list(sums)
     avg.times = times.tolist()
-    avg.torques = torques.tolist()
+    avg.loads = list(loads)
     if len(times):
         log(f"restart from {path}: continuing the ring averages from its {len(times)} samples")
+
+
+def _loads(saved: dict, n_loads: int) -> np.ndarray:
+    """The ring loads of a checkpoint's samples [samples, n_loads]: its ``rings_loads``, or,
+    from a checkpoint written before they were kept, the inner torque and NaN for the rest."""
+    if saved.get("rings_loads") is not None:
+        return np.asarray(saved["rings_loads"], float)
+    torque = np.asarray(saved["rings_inner_torque"], float).ravel()
+    loads = np.full((torque.size, n_loads), np.nan)
+    loads[:, 0] = torque
+    return loads

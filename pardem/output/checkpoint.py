@@ -11,8 +11,8 @@ changed omega_inner, ``branch.py``), the scene fingerprint (a restart of a diffe
 is refused), whether the snapshot of this state is an end snapshot off the snapshot grid
 (``end_snapshot``: a continued run replaces it, ``series.py``). With
 in-situ averaging, the ring samples so far (``rings_sums``, ``rings_times``,
-``rings_inner_torque``; attribute ``rings_layout``: see ``averages.py``). Version 1
-files (pardem before the contact-model slots) are read too. The file is written as
+``rings_inner_torque``, ``rings_loads``; attribute ``rings_layout``: see ``averages.py``).
+Version 1 files (pardem before the contact-model slots) are read too. The file is written as
 ``NAME.tmp`` and renamed, so a crash never leaves a broken checkpoint.
 """
 

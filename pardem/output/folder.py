@@ -24,8 +24,8 @@ from ..input.scene import SceneError
 from ..input.scene_file import load_scene
 
 RUN_FILES = ("scene.toml", "log.txt", "checkpoint.h5", "snapshots", "particles.xdmf",
-             "contacts.xdmf", "rings.h5", "rings.csv", "rings_blocks.csv", "rings.vtu",
-             "particles.h5")  # the snapshots of earlier pardem versions
+             "contacts.xdmf", "rings.h5", "rings.csv", "rings_blocks.csv", "ring_loads.csv",
+             "rings.vtu", "particles.h5")  # the snapshots of earlier pardem versions
 
 
 LOCK = ".pardem-lock"

@@ -103,6 +103,8 @@ class RingSamples(Writer):
         self.averager.sample(sim)
 
     def close(self, sim) -> None:
+        if self.averager.samples:
+            sim.log(self.averager.summary(sim.scene.geometry.outer_radius))
         if self.out_dir is not None and self.averager.samples and sim.decomp.rank == 0:
             self.averager.write(self.out_dir)
 

@@ -115,6 +115,10 @@ class Decomposition:
         """The first non-None message over the ranks (every rank gets it)."""
         return next((m for m in self.comm.allgather(message) if m is not None), None)
 
+    def join(self, rows: np.ndarray) -> np.ndarray:
+        """Every rank's rows [m_k, ...] stacked in rank order, on every rank."""
+        return np.concatenate(self.comm.allgather(rows))
+
     def gather_rows(self, rows: dict[str, np.ndarray], key: str = "gid"):
         """Rows of every rank joined and sorted by ``key`` on rank 0 (None elsewhere)."""
         parts = self.comm.gather(rows, root=0)

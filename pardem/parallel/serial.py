@@ -43,6 +43,9 @@ class SerialDecomposition:
     def first_message(self, message):
         return message
 
+    def join(self, rows):
+        return rows
+
     def gather_rows(self, rows: dict[str, np.ndarray], key: str = "gid"):
         return sorted_rows([rows], key)
 
