@@ -21,7 +21,7 @@ import numpy as np
 from .input.schema import scene_from_dict
 from . import builder
 from .simulation import Simulation, SimulationError
-from .contact.model import contact_time
+from .contact.damped_spring import contact_time
 from .core.scales import smallest_contact_time
 from .core.stability import stability_limit
 

@@ -39,11 +39,13 @@ NO_EFFECTS = {"normal_damping": False, "tangential_friction": False, "rotation":
 
 
 def free_scene(particles, effects=None, contact=None, time=None, name="test", neighbors=None):
-    """A free scene from a list of particle dicts (x, y, vx, vy, omega, diameter, mass)."""
+    """A free scene from a list of particle dicts (x, y, vx, vy, omega, diameter, mass);
+    ``contact`` overrides the test law's keys (None: leave the key out)."""
     d = {"scene": {"name": name, "kind": "free", "seed": 1},
          "particles": [dict(p) for p in particles],
          "effects": {**NO_EFFECTS, **(effects or {})},
-         "contact": {"k_n": K_N, "gamma_n": GAMMA_N, "k_t": K_T, "mu": MU, **(contact or {})},
+         "contact": {k: v for k, v in {"k_n": K_N, "gamma_n": GAMMA_N, "k_t": K_T, "mu": MU,
+                                       **(contact or {})}.items() if v is not None},
          "time": {"dt": "auto", "end": 1.0, **(time or {})}}
     if neighbors:
         d["neighbors"] = neighbors
@@ -105,3 +107,39 @@ def wall_setup(target: str, dt="auto", contact=None):
         return a + aw - np.hypot(*(x[0] - x[wall]))
 
     return sim, overlap, lambda s: -(s.gathered("velocity")["velocity"][0] @ e_r)
+
+
+def head_on(y, species, masses, gap=1e-4):
+    """Two disks of the given species and masses meeting head on along x at height y."""
+    return [{"x": -(D_SMALL + gap) / 2, "y": y, "vx": 0.05, "diameter": D_SMALL,
+             "mass": masses[0], "species": species[0]},
+            {"x": (D_SMALL + gap) / 2, "y": y, "vx": -0.05, "diameter": D_SMALL,
+             "mass": masses[1], "species": species[1]}]
+
+
+def collisions(sim, pairs, max_steps=100_000):
+    """(contact time s, restitution) of each pair (i, j) of particles meeting head on along x,
+    the contact's start and end interpolated between steps (testing.measure, for several)."""
+    def overlap(x, i, j):
+        return D_SMALL - (x[j, 0] - x[i, 0])
+
+    x = sim.gathered("position")["position"]
+    v = sim.gathered("velocity")["velocity"]
+    before = [overlap(x, i, j) for i, j in pairs]
+    v_in = [v[i, 0] - v[j, 0] for i, j in pairs]
+    start, out = [None] * len(pairs), [None] * len(pairs)
+    for k in range(1, max_steps):
+        sim.advance_steps(1)
+        x = sim.gathered("position")["position"]
+        for q, (i, j) in enumerate(pairs):
+            d, d0 = overlap(x, i, j), before[q]
+            if start[q] is None and d > 0 >= d0:
+                start[q] = (k - 1 + d0 / (d0 - d)) * sim.dt
+            elif start[q] is not None and out[q] is None and d <= 0 < d0:
+                v = sim.gathered("velocity")["velocity"]
+                out[q] = ((k - 1 + d0 / (d0 - d)) * sim.dt - start[q],
+                          -(v[i, 0] - v[j, 0]) / v_in[q])
+            before[q] = d
+        if all(out):
+            return out
+    raise RuntimeError("a collision did not finish")

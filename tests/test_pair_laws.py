@@ -8,8 +8,8 @@ import math
 import h5py
 import numpy as np
 import pytest
-from helpers import (D_SMALL, GAMMA_N, K_N, M_SMALL, analytic_collision, couette_scene,
-                     free_scene, wall_setup)
+from helpers import (GAMMA_N, K_N, M_SMALL, analytic_collision, collisions, couette_scene,
+                     free_scene, head_on, wall_setup)
 
 from pardem.contact.model import LAW_COLUMNS
 from pardem.contact.pairs import pair_table
@@ -19,42 +19,6 @@ from pardem.input.scene_file import load_scene, write_scene
 from pardem.simulation import Simulation
 
 STIFF = {"species": [0, 1], "k_n": 4 * K_N, "gamma_n": 0.5 * GAMMA_N}
-
-
-def head_on(y, species, masses, gap=1e-4):
-    """Two disks of the given species and masses meeting head on along x at height y."""
-    return [{"x": -(D_SMALL + gap) / 2, "y": y, "vx": 0.05, "diameter": D_SMALL,
-             "mass": masses[0], "species": species[0]},
-            {"x": (D_SMALL + gap) / 2, "y": y, "vx": -0.05, "diameter": D_SMALL,
-             "mass": masses[1], "species": species[1]}]
-
-
-def collisions(sim, pairs, max_steps=100_000):
-    """(contact time s, restitution) of each pair (i, j) of particles meeting head on along x,
-    the contact's start and end interpolated between steps (testing.measure, for several)."""
-    def overlap(x, i, j):
-        return D_SMALL - (x[j, 0] - x[i, 0])
-
-    x = sim.gathered("position")["position"]
-    v = sim.gathered("velocity")["velocity"]
-    before = [overlap(x, i, j) for i, j in pairs]
-    v_in = [v[i, 0] - v[j, 0] for i, j in pairs]
-    start, out = [None] * len(pairs), [None] * len(pairs)
-    for k in range(1, max_steps):
-        sim.advance_steps(1)
-        x = sim.gathered("position")["position"]
-        for q, (i, j) in enumerate(pairs):
-            d, d0 = overlap(x, i, j), before[q]
-            if start[q] is None and d > 0 >= d0:
-                start[q] = (k - 1 + d0 / (d0 - d)) * sim.dt
-            elif start[q] is not None and out[q] is None and d <= 0 < d0:
-                v = sim.gathered("velocity")["velocity"]
-                out[q] = ((k - 1 + d0 / (d0 - d)) * sim.dt - start[q],
-                          -(v[i, 0] - v[j, 0]) / v_in[q])
-            before[q] = d
-        if all(out):
-            return out
-    raise RuntimeError("a collision did not finish")
 
 
 def test_a_pair_table_gives_its_pair_its_own_contact_time_and_restitution():

@@ -17,7 +17,7 @@ import pytest
 from pardem.input.scene import FreeParticles, Scene, SceneError
 from pardem.input.schema import scene_from_dict
 from pardem.input.scene_file import load_scene, scene_to_toml, write_scene
-from pardem.contact.model import restitution
+from pardem.contact.damped_spring import restitution
 from pardem.check import describe
 from pardem.core.scales import contact_time, smallest_contact_time, smallest_reduced_mass
 from pardem.core.timestep import off_step, resolve_dt, resolve_step, time_quantum

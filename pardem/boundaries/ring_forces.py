@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numba as nb
 
-from ..contact.model import history_width, surface_contact
+from ..contact.model import history_width, surface_contact, with_damping
 from ..contact.overlap import MAX_OVERLAP
 from ..contact.overlap import note_deep
 from ..contact.pairs import pair_law, ring_partner
@@ -43,7 +43,8 @@ def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, deep):
         fn, ftx, fty, torque = surface_contact(
             (nx, ny), delta, a, (ps.v_pred[i, 0] - vjx + s * ny, ps.v_pred[i, 1] - vjy - s * nx),
             (w_i, w_j), ps.hist_wall, i,
-            pair_law(prm.pair_law, ps.species[i], ring_partner(prm.pair_law, ring), prm.law, o), o)
+            with_damping(pair_law(prm.pair_law, ps.species[i], ring_partner(prm.pair_law, ring),
+                                  prm.law, o), 1.0 / ps.inv_mass[i], o), o)
         if record:
             pairs.wall_fn[q] = fn
             pairs.wall_ft[q, 0] = ftx

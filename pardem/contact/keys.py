@@ -27,6 +27,9 @@ PARAMETER_UNITS = {"gamma_t": "kg/s", "k_r": "N/m", "mu_r": ""}
 def check_slots(c: dict, e: dict) -> None:
     """SceneError unless every switched-on slot has its parameters ([contact] c and [effects]
     e as dicts), and no slot's parameter is set while the slot is off."""
+    if c.get("restitution") is not None and not e["normal_damping"]:
+        raise fail("[contact]", "restitution", c["restitution"], "is set but [effects] "
+                   "normal_damping is off; switch it on or remove restitution")
     if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
         raise fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
                    "tangential_friction is on and mu > 0", "N/m")
@@ -71,3 +74,17 @@ def check_law(c: dict, given) -> None:
             raise SceneError(f'[contact] {name}: missing (required with normal = "{law.name}")')
     if law.check is not None:
         law.check(c)
+    if c.get("restitution") is not None:
+        _check_restitution(c, given, law)
+
+
+def _check_restitution(c: dict, given, law) -> None:
+    """A restitution replaces gamma_n, needs a law with its closed form (and normal damping:
+    check_damping)."""
+    if "gamma_n" in given:
+        raise fail("[contact]", "restitution", c["restitution"], "gamma_n is given too; give "
+                   "one of them (the restitution sets each contact's gamma_n from its masses)")
+    if not law.restitution:
+        laws = ", ".join(f'"{x.name}"' for x in LAWS.values() if x.restitution)
+        raise fail("[contact]", "restitution", c["restitution"], f'is defined for normal = '
+                   f'{laws}; give gamma_n with normal = "{law.name}"')

@@ -1,7 +1,8 @@
 """The contact model of one scene: which slots of ``laws.py`` are on (``ContactOptions``), their
 parameters (``LawParams``), the per-contact history they keep, and the composed kernels that the
 force loop calls for disk-disk pairs (``pair_force``, on lanes: lanes.py) and disk-ring contacts
-(``surface_contact``); also the analytic contact time and the elastic energy of a contact.
+(``surface_contact``); also the elastic energy of a contact (the damped spring's analytic
+contact time and restitution: damped_spring.py).
 
 Stage: force kernels. Options are compile-time constants (``ContactOptions`` is ``@static``:
 its values are part of its numba type), so a slot that is off is compiled out: no branch per
@@ -40,6 +41,7 @@ import numba as nb
 
 from ..core.jit import INLINE
 from ..core.static import static
+from . import damped_spring
 from .laws import coulomb_limit, normal_viscous, rolling_limit, spring_increment
 from .normal import (LAWS, law_of, normal_energy, normal_force, normal_width,
                      tangential_stiffness)
@@ -58,6 +60,7 @@ class ContactOptions:
     eta: bool = False
     normal: int = 0  # the normal law's NormalLaw.code (0: linear)
     pairs: bool = False  # parameters per pair of species (contact/pairs.py)
+    restitution: bool = False  # gamma_n per contact from [contact] restitution (with_damping)
 
 
 class LawParams(NamedTuple):
@@ -75,6 +78,7 @@ class LawParams(NamedTuple):
     mu_r: float = 0.0
     k_unload: float = 0.0
     k_adhesion: float = 0.0
+    beta_n: float = 0.0  # with ContactOptions.restitution: gamma_n = beta_n sqrt(k_n m_red)
 
 
 LAW_COLUMNS = LawParams._fields[1:]
@@ -82,21 +86,36 @@ LAW_COLUMNS = LawParams._fields[1:]
 
 
 def options_for(effects, integrator: str, eta: bool, normal: str = "linear",
-                pairs: bool = False) -> ContactOptions:
-    """The options of a scene's [effects] table, [time] integrator, [contact] normal and
-    whether it gives pair tables."""
+                pairs: bool = False, restitution: bool = False) -> ContactOptions:
+    """The options of a scene's [effects] table, [time] integrator, [contact] normal, whether
+    it gives pair tables and whether its damping is given as a restitution."""
     return ContactOptions(
         damping=effects.normal_damping, friction=effects.tangential_friction,
         clip=effects.clip_attractive_normal, window=integrator == "verlet",
         tangential_damping=effects.tangential_damping, rolling=effects.rolling_resistance,
-        eta=eta, normal=LAWS[normal].code, pairs=pairs)
+        eta=eta, normal=LAWS[normal].code, pairs=pairs,
+        restitution=restitution and effects.normal_damping)
 
 
 def law_params(contact, dt: float) -> LawParams:
-    """LawParams from a scene's [contact] table and the time step (s)."""
-    return LawParams(dt, contact.k_n, contact.gamma_n, contact.k_t, contact.mu,
-                     contact.gamma_t, contact.k_r, contact.mu_r)._replace(
+    """LawParams from a scene's [contact] table and the time step (s); a restitution gives
+    beta_n (and gamma_n 0: each contact's comes from its reduced mass, with_damping)."""
+    e = contact.restitution
+    return LawParams(dt, contact.k_n, contact.gamma_n if e is None else 0.0, contact.k_t,
+                     contact.mu, contact.gamma_t, contact.k_r, contact.mu_r,
+                     beta_n=0.0 if e is None else damped_spring.restitution_beta(e))._replace(
                          **law_of(contact).coefficients(contact))
+
+
+@nb.njit(**INLINE)
+def with_damping(law, m_red, o):
+    """``law`` with the gamma_n of a contact of reduced mass m_red (kg): with a restitution
+    (o.restitution), beta_n sqrt(k_n m_red); else ``law`` itself."""
+    if not o.restitution:
+        return law
+    wd_gamma = law.beta_n * math.sqrt(law.k_n * m_red)
+    return LawParams(law.dt, law.k_n, wd_gamma, law.k_t, law.mu, law.gamma_t, law.k_r,
+                     law.mu_r, law.k_unload, law.k_adhesion, law.beta_n)
 
 
 def history_columns(o: ContactOptions) -> tuple[str, ...]:
@@ -288,29 +307,6 @@ def surface_contact(n, delta, a, v, w, hist, i, law, o):
     if o.rolling:
         sc_torque += a * sc_fr
     return sc_fn, sc_ftx, sc_fty, sc_torque
-
-
-# ----------------------------------------------------------------- analytic properties
-
-def damped_frequency(k_n: float, gamma_n: float, m_red: float) -> float:
-    """omega (rad/s) of the damped normal spring: omega^2 = k_n/m_red - eta^2 with eta =
-    gamma_n/(2 m_red). ValueError when overdamped (a contact never ends)."""
-    eta = gamma_n / (2.0 * m_red)
-    w2 = k_n / m_red - eta * eta
-    if not w2 > 0:
-        raise ValueError(f"overdamped: gamma_n/(2 m_red) = {eta:.4g} 1/s >= sqrt(k_n/m_red) = "
-                         f"{math.sqrt(k_n / m_red):.4g} 1/s")
-    return math.sqrt(w2)
-
-
-def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
-    """t_c = pi/omega (s) of the damped normal spring (SPEC §3)."""
-    return math.pi / damped_frequency(k_n, gamma_n, m_red)
-
-
-def restitution(k_n: float, gamma_n: float, m_red: float) -> float:
-    """Normal restitution e_n = exp(-pi eta/omega) of the damped normal spring."""
-    return math.exp(-math.pi * gamma_n / (2.0 * m_red) / damped_frequency(k_n, gamma_n, m_red))
 
 
 @nb.njit(**INLINE)

@@ -16,6 +16,8 @@ pardem needs to know about the law, so that no other module names one:
                  k_t exactly)
     tangential   whether the tangential spring's stiffness scales with the contact radius
                  sqrt(R* delta) (Mindlin: k_t is then a modulus, N/m^2)
+    restitution  whether [contact] restitution may give the damping: a closed form of the
+                 restitution of the law with viscous damping (the linear spring's)
 
 The compiled side is three dispatch kernels below (force, tangential stiffness, stored energy),
 each a chain of compile-time tests on ``ContactOptions.normal`` (the law's ``code``): the
@@ -37,7 +39,7 @@ from .slot import NormalLaw
 
 LINEAR = NormalLaw(
     "linear", 0, ("k_n",), (), (), lambda c: {"k_n": c.k_n, "k_t": c.k_t},
-    lambda c, d: (c.k_n, c.k_n, c.k_t),
+    lambda c, d: (c.k_n, c.k_n, c.k_t), restitution=True,
     summary="the paper's linear spring k_n delta (eq. 1.1)")
 
 LAWS: dict[str, NormalLaw] = {law.name: law for law in (LINEAR, HERTZ, LUDING)}

@@ -18,6 +18,8 @@ rule, per parameter (``MIXING``):
     friction     mu, mu_r: the geometric mean sqrt(mu_a mu_b) (LAMMPS's rule; a friction
                  coefficient belongs to the pair of surfaces, so give the pair a table where
                  it is known)
+    restitution  e_n given as [contact] restitution: the geometric mean sqrt(e_a e_b), the
+                 mean of the two logarithmic decrements (a convention, as for friction)
 
 Each rule gives a pair of one species its own law exactly (mix(x, x) = x), and a scene
 without pair tables the paper's single law, bit for bit.
@@ -55,9 +57,18 @@ def geometric(a: float, b: float) -> float:
     return a if a == b else float(np.sqrt(a * b))
 
 
+def restitutions(a: float, b: float) -> float:
+    """The beta_n (damped_spring.restitution_beta) of the restitution sqrt(e_a e_b) of two
+    contacts' beta_n: their -ln e = pi beta/sqrt(4 - beta^2) averaged."""
+    if a == b:
+        return a
+    big_l = 0.5 * sum(np.pi * x / np.sqrt(4.0 - x * x) for x in (a, b))
+    return float(2.0 * big_l / np.sqrt(np.pi ** 2 + big_l ** 2))
+
+
 MIXING = {"k_n": harmonic, "gamma_n": harmonic, "k_t": harmonic, "mu": geometric,
           "gamma_t": harmonic, "k_r": harmonic, "mu_r": geometric, "k_unload": harmonic,
-          "k_adhesion": harmonic}
+          "k_adhesion": harmonic, "beta_n": restitutions}
 """The rule per LawParams column of a pair without a table (see above)."""
 assert set(MIXING) == set(LAW_COLUMNS)
 
@@ -131,7 +142,7 @@ def pair_law(table, p, q, law, o):
         return law
     return LawParams(law.dt, table[p, q, 0], table[p, q, 1], table[p, q, 2], table[p, q, 3],
                      table[p, q, 4], table[p, q, 5], table[p, q, 6], table[p, q, 7],
-                     table[p, q, 8])
+                     table[p, q, 8], table[p, q, 9])
 
 
 @nb.njit(**INLINE)

@@ -17,5 +17,6 @@ class NormalLaw(NamedTuple):
     coefficients: Callable
     stiffness: Callable
     tangential: bool = False
+    restitution: bool = False
     check: Callable | None = None
     summary: str = ""

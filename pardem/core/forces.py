@@ -20,8 +20,8 @@ import numba as nb
 import numpy as np
 
 from ..contact.lanes import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX, W_FTY,
-                             W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, gather_law, lane_contact,
-                             work_size)
+                             W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, gather_law, gather_masses,
+                             lane_contact, work_size)
 from ..contact.model import history_width
 from ..contact.overlap import lane_overlap, note_deep, too_deep
 from .jit import INLINE, JIT
@@ -171,6 +171,8 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure, deep):
             work[W_WJ * BATCH + ln] = gw[jj] if rotation else 0.0
             if o.pairs:
                 gather_law(work, ln, prm.pair_law, ps.species[ii], ps.species[jj], o)
+            if o.restitution:
+                gather_masses(work, ln, ps.inv_mass[ii], ps.inv_mass[jj], o)
             for c in range(n_hist):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
@@ -284,6 +286,8 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
             work[W_WJ * BATCH + ln] = gw[jj] if rotation else 0.0
             if o.pairs:
                 gather_law(work, ln, prm.pair_law, ps.species[ii], ps.species[jj], o)
+            if o.restitution:
+                gather_masses(work, ln, ps.inv_mass[ii], ps.inv_mass[jj], o)
             for c in range(n_hist):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
         upto = queue[m - 1] + 1 if m > 0 else n_pairs

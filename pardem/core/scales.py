@@ -6,9 +6,12 @@ kg/s, kg, s.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
-from ..contact import model
+from ..contact import damped_spring
+from ..contact.damped_spring import contact_gamma, restitution_beta
 from ..contact.normal import law_of
 from ..contact.pairs import harmonic, own_contacts, pair_contacts, species_count
 from ..input.scene import Scene, SceneError
@@ -17,7 +20,7 @@ from ..input.scene import Scene, SceneError
 def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
     """t_c (s) of the damped normal spring; SceneError when the contact is overdamped."""
     try:
-        return model.contact_time(k_n, gamma_n, m_red)
+        return damped_spring.contact_time(k_n, gamma_n, m_red)
     except ValueError as e:
         raise SceneError(f"[contact] gamma_n = {gamma_n!r}: {e} for reduced mass {m_red:.4g} "
                          "kg; a contact never ends, so there is no t_c (kg/s)") from None
@@ -60,11 +63,21 @@ def normal_stiffness(scene: Scene, c=None) -> tuple[float, float, float]:
 def smallest_contact_time(scene: Scene) -> float:
     """t_c (s) of the pair with the smallest reduced mass under the [contact] law, or of any
     pair of partners if shorter (its table's law, or its mixed law: contact/pairs.py; with its
-    own reduced mass, a ring infinitely massive); gamma_n counts only if the scene switches
-    normal damping on."""
+    own reduced mass, a ring infinitely massive); the damping counts only if the scene
+    switches normal damping on (a restitution gives each pair's gamma_n from its m_red)."""
     damped = scene.effects.normal_damping
-    t_c = contact_time(normal_stiffness(scene)[1], scene.contact.gamma_n if damped else 0.0,
-                       smallest_reduced_mass(scene))
+
+    def time(c, k, m_red):  # c: a [contact] table, or a pair of own tables to mix
+        if not damped:
+            return contact_time(k, 0.0, m_red)
+        if isinstance(c, tuple) and c[0].restitution is None:
+            return contact_time(k, harmonic(c[0].gamma_n, c[1].gamma_n), m_red)
+        if isinstance(c, tuple):
+            e = math.sqrt(c[0].restitution * c[1].restitution)
+            return contact_time(k, restitution_beta(e) * math.sqrt(k * m_red), m_red)
+        return contact_time(k, contact_gamma(c, k, m_red), m_red)
+
+    t_c = time(scene.contact, normal_stiffness(scene)[1], smallest_reduced_mass(scene))
     if not scene.pairs:
         return t_c
     given, own = dict(pair_contacts(scene)), own_contacts(scene)
@@ -74,12 +87,11 @@ def smallest_contact_time(scene: Scene) -> float:
             if m_red is None:
                 continue
             if (p, q) in given:
-                k, gamma = normal_stiffness(scene, given[p, q])[1], given[p, q].gamma_n
+                t_c = min(t_c, time(given[p, q], normal_stiffness(scene, given[p, q])[1], m_red))
             else:  # the mixed law's stiffness at the reference overlap mixes alike
                 k = harmonic(normal_stiffness(scene, own[p])[1],
                              normal_stiffness(scene, own[q])[1])
-                gamma = harmonic(own[p].gamma_n, own[q].gamma_n)
-            t_c = min(t_c, contact_time(k, gamma if damped else 0.0, m_red))
+                t_c = min(t_c, time((own[p], own[q]), k, m_red))
     return t_c
 
 

@@ -18,6 +18,7 @@ from fractions import Fraction
 
 import numpy as np
 
+from ..contact.damped_spring import restitution_beta
 from ..contact.overlap import MAX_OVERLAP
 from ..contact.pairs import contact_laws
 from .scales import free_disks, normal_stiffness, smallest_contact_time, smallest_reduced_mass
@@ -98,12 +99,16 @@ def approach_speed_limit(scene: Scene, dt: float) -> float:
     diameters, no damping."""
     d, m = _free_kinds(scene.particles)
     laws = contact_laws(scene)
-    gamma = min(c.gamma_n for c in laws) if scene.effects.normal_damping else 0.0
     k_load = softest_load(scene)
+    damped, given = scene.effects.normal_damping, scene.contact.restitution is not None
+    gamma = min(c.gamma_n for c in laws) if damped and not given else 0.0
     if d.size > 64:
         worst = np.max((np.sqrt(m / k_load) + dt) / d)
     else:
         m_red = m[:, None] * m[None, :] / (m[:, None] + m[None, :])
+        if damped and given:  # the least damping of any restitution, at each pair's m_red
+            beta = min(restitution_beta(c.restitution) for c in laws)
+            gamma = beta * np.sqrt(k_load * m_red)
         worst = np.max((peak_overlap_time(m_red, k_load, gamma) + dt)
                        / np.minimum(d[:, None], d[None, :]))
     return float(MAX_OVERLAP / worst)

@@ -44,15 +44,13 @@ class Geometry:
     counter-clockwise positive, 0.1), wall_particle_diameter (m, 2.5e-3),
     wall_particle_spacing (m, centre to centre along a ring, 7.0e-3).
 
-    The wall layout of each ring (prefix ``inner_`` or ``outer_``; walls.WallLayout):
-    ``*_wall_count`` (glued disks on that ring, >= 0, 0 = a smooth ring; "auto" = None:
-    round(2 pi R / wall_particle_spacing), at least 1), ``*_wall_diameter`` (m, "auto" = None:
-    wall_particle_diameter), ``*_flat_surface`` (true: the flat ring surface behind the
-    disks is a contact surface too; false: only the disks are). Disks may overlap (spacing
-    below their diameter). The outer ring's disks sit on its final radius's spacing and move
-    radially with it during the compression.
+    The wall layout of each ring (prefix ``inner_`` or ``outer_``): ``*_wall_count`` (glued
+    disks on that ring, 0 = a smooth ring; "auto": round(2 pi R / wall_particle_spacing), at
+    least 1), ``*_wall_diameter`` (m; "auto": wall_particle_diameter), ``*_flat_surface``
+    (true: the flat ring surface behind the disks is a contact surface too). Disks may
+    overlap. The outer ring's disks sit on its final radius's spacing and move with it.
 
-    ``volume_fraction`` ("auto" = None: the species' counts decide): fill the cell to this
+    ``volume_fraction`` ("auto": the species' counts decide): fill the cell to this
     global volume fraction (free disks plus half of each wall disk, over pi (R_o^2 - R_i^2),
     the paper's v-bar); the species then give ``share`` instead of ``count``, and the counts
     are the nearest integers to share / sum(shares) x the number of disks that reach it. The
@@ -78,14 +76,16 @@ class Geometry:
 
 @dataclass(frozen=True)
 class Species:
-    """``[[species]]`` (couette only): name (unique), diameter (m), mass (kg), count (>= 0),
-    all required; or, with ``[geometry] volume_fraction``, ``share`` (> 0, the species' part
+    """``[[species]]`` (couette only): name (unique), diameter (m), mass (kg) or density
+    (kg/m^3 of the disks' material: mass = density pi (d/2)^2 h, h the [contact] height),
+    count (>= 0); or, with ``[geometry] volume_fraction``, ``share`` (> 0, the species' part
     of the disks by number, in any unit: 2545 and 394 as well as 0.866 and 0.134) instead of
     ``count``."""
 
     name: str = key()
     diameter: float = key(unit="m", rule=">0")
-    mass: float = key(unit="kg", rule=">0")
+    mass: float | None = key(None, unit="kg", rule=">0")
+    density: float | None = key(None, unit="kg/m^3", rule=">0")
     count: int | None = key(None, rule=">=0")
     share: float | None = key(None, rule=">0")
 
@@ -126,16 +126,18 @@ class FreeParticles(Columns):
 @dataclass(frozen=True)
 class Contact:
     """``[contact]``: normal (the normal law, contact.normal.LAWS: "linear", the paper's
-    spring k_n delta, by default), k_n (N/m, 352.1), gamma_n (kg/s, 0.19), k_t (N/m, 267.1),
-    mu (0.44), mu_bottom (2e-5), gravity (m/s^2, 9.81; bottom friction only), height (m, disk
-    height h, 6e-3); the optional slots' parameters: gamma_t (kg/s, tangential viscous damping,
-    0), k_r (N/m, rolling spring, 0), mu_r (rolling resistance's Coulomb-type coefficient, 0),
-    each allowed only with its [effects] switch; then the other normal laws' parameters, each
-    allowed only with its law."""
+    spring k_n delta, by default), k_n (N/m, 352.1), gamma_n (kg/s, 0.19) or restitution (e_n
+    of every contact whatever its masses, the linear law only; "auto": from gamma_n), k_t (N/m,
+    267.1), mu (0.44), mu_bottom (2e-5), gravity (m/s^2, 9.81; bottom friction only), height
+    (m, disk height h, 6e-3); the optional slots' parameters: gamma_t (kg/s, tangential
+    viscous damping, 0), k_r (N/m, rolling spring, 0), mu_r (rolling resistance's
+    Coulomb-type coefficient, 0), each only with its [effects] switch; then the other normal
+    laws' parameters, each only with its law."""
 
     normal: str = key("linear", rule="|".join(LAWS))
     k_n: float = key(352.1, "N/m", ">0")
     gamma_n: float = key(0.19, "kg/s", ">=0")
+    restitution: float | None = key(None, "", ">0 <=1")
     k_t: float = key(267.1, "N/m", ">=0")
     mu: float = key(0.44, "", ">=0")
     mu_bottom: float = key(2e-5, "", ">=0")
@@ -183,7 +185,7 @@ class Effects:
 
 @dataclass(frozen=True)
 class TimeCfg:
-    """``[time]``: dt (s, or "auto" = None: t_c(smallest pair) / dt_per_contact, shortened by
+    """``[time]``: dt (s, or "auto": t_c(smallest pair) / dt_per_contact, shortened by
     at most 1 % to divide a power of ten of a second, 10 ms for the paper's material, so that
     output at multiples of it lands at exactly the times named; default auto), dt_per_contact
     (>= 5, default 50), end (s, 239.0), integrator ("verlet": velocity Verlet whose
@@ -205,7 +207,7 @@ class TimeCfg:
 
 @dataclass(frozen=True)
 class Neighbors:
-    """``[neighbors]`` (optional): skin (m, Verlet-list skin; "auto" = None, meaning 0.1 x the
+    """``[neighbors]`` (optional): skin (m, Verlet-list skin; "auto": 0.1 x the
     smallest free-particle diameter; default auto)."""
 
     skin: float | None = key(None, "m", ">0")
@@ -224,11 +226,11 @@ class OutputCfg:
 @dataclass(frozen=True)
 class AveragingCfg:
     """``[averaging]`` (optional; in-situ ring averaging): start (s, 180.0), end (s, 239.0),
-    sample_interval (s, 0.1), ring_width (m; "auto" = None: the smallest free-particle diameter
+    sample_interval (s, 0.1), ring_width (m; "auto": the smallest free-particle diameter
     / 8, the paper's choice), weighting ("slice" (the
     paper's) | "exact" | "centre" | "gaussian", see averaging/weights.py; default "slice"),
     reference_diameter (m, the d~ of r~ = (r - R_i)/d~ and of the
-    v_phi decay length; "auto" = None: the mean free-particle diameter; the paper's scenes
+    v_phi decay length; "auto": the mean free-particle diameter; the paper's scenes
     set 8.0e-3), displacement (the tangential part of the contact displacement Delta in eps and
     kappa: "spring" (default), the elastic Cundall-Strack spring xi, held at the Coulomb cap
     while a contact slides, with which M = (k_t/pi h) kappa . F holds identically; "eta", eq.
@@ -288,16 +290,18 @@ class Scene:
         if self.geometry is not None:
             d["geometry"] = {k: "auto" if v is None else v
                              for k, v in dataclasses.asdict(self.geometry).items()}
-            d["species"] = [{k: v for k, v in dataclasses.asdict(s).items() if k != "share"}
-                            for s in self.species]  # resolved: counts, no shares
+            d["species"] = [{k: v for k, v in dataclasses.asdict(s).items()  # resolved counts
+                             if k != "share" and k != ("mass" if s.density else "density")}
+                            for s in self.species]
         if self.particles is not None:  # species only when given (older scenes' fingerprints)
             names = [k for k in _PCOLS if k != "species" or self.particles.species.any()]
             cols = [getattr(self.particles, k).tolist() for k in names]
             d["particles"] = [dict(zip(names, row)) for row in zip(*cols)]
         if self.wall_disks is not None:
             d["wall_disks"] = self.wall_disks.rows()
+        damping = "gamma_n" if self.contact.restitution is not None else "restitution"
         d["contact"] = {k: v for k, v in dataclasses.asdict(self.contact).items()
-                        if k not in foreign_keys(self.contact.normal)}
+                        if k not in foreign_keys(self.contact.normal) and k != damping}
         if self.pairs:
             d["contact"]["pair"] = [{"species": list(p.species), **dict(p.values)}
                                     for p in self.pairs]

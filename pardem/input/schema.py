@@ -120,7 +120,7 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
                              "randomly from [[species]])")
         if "species" not in d:
             raise SceneError("[[species]] missing: a couette scene needs at least one species")
-        species = _species(_table_list(d["species"], "species"))
+        species = _species(_table_list(d["species"], "species"), c["height"])
         g = _parse(d.get("geometry", {}), "geometry", "[geometry]")
         _check_counts(species, g["volume_fraction"] is not None)
         species, geometry = _counts(species, _geometry(g, species))
@@ -157,14 +157,29 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
                  wall_disks_of(d, kind, particles, Path(base_dir)), WarningsCfg(**opt["warnings"]))
 
 
-def _species(rows: list[Any]) -> tuple[Species, ...]:
-    out = tuple(Species(**_parse(r, "species", f"[[species]] #{i}")) for i, r in enumerate(rows))
+def _species(rows: list[Any], height: float) -> tuple[Species, ...]:
+    """The [[species]] tables, each with its mass (from its density and the disks' height
+    ``height`` if given so)."""
+    out = tuple(_mass(Species(**_parse(r, "species", f"[[species]] #{i}")), i, height)
+                for i, r in enumerate(rows))
     seen: set[str] = set()
     for i, s in enumerate(out):
         if s.name in seen:
             raise fail(f"[[species]] #{i}", "name", s.name, "duplicate species name")
         seen.add(s.name)
     return out
+
+
+def _mass(s: Species, i: int, height: float) -> Species:
+    if s.mass is not None and s.density is not None:
+        raise fail(f"[[species]] #{i}", "density", s.density, "mass is given too; give one of "
+                   "them (mass = density pi (d/2)^2 h, h the [contact] height)", "kg/m^3")
+    if s.mass is None and s.density is None:
+        raise SceneError(f"[[species]] #{i} mass: missing (give mass in kg, or density in "
+                         "kg/m^3 of the disks' material)")
+    if s.mass is not None:
+        return s
+    return dataclasses.replace(s, mass=s.density * math.pi * (s.diameter / 2) ** 2 * height)
 
 
 def _check_counts(species: tuple[Species, ...], filling: bool) -> None:

@@ -18,7 +18,7 @@ import numpy as np
 from averaging.io import read_rings
 from averaging.sample import snapshot_sample
 from averaging.timeavg import RingAverager
-from pardem.contact.model import contact_time, restitution
+from pardem.contact.damped_spring import contact_time, restitution
 from pardem.output.snapshots import read_snapshots
 from pardem.input.schema import scene_from_dict
 from pardem.input.scene_file import load_scene
