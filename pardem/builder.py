@@ -45,6 +45,7 @@ from .output.folder import FolderLock, claim
 from .output.progress import breakdown, log_line
 from .output.restart import put_recorded_forces, restore
 from .parallel import GHOST_MARGIN_SKINS, decomposition
+from .boundaries.registry import flat_surfaces, moving_disks
 from .boundaries.walls import place_wall_disks, rings_of, wall_layout
 
 
@@ -72,7 +73,7 @@ class SimulationBuilder:
         self.history_columns = history_columns(self.contact)
         self.hist = len(self.history_columns)
         self.options = StepOptions(self.contact, e.rotation, e.bottom_friction,
-                                   scene.info.kind == "couette",
+                                   flat_surfaces(scene),
                                    predict=scene.time.integrator == "verlet")
         self.stepper = make_stepper(self.options)
         self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "averaging": 0.0,
@@ -80,9 +81,8 @@ class SimulationBuilder:
         self.n_rebuilds = 0
         skin = scene.neighbors.skin or 0.1 * scene.min_free_diameter
         c = scene.contact
-        inner, outer = (g is not None and wall_layout(g, ring).count > 0
-                        for ring in ("inner", "outer"))
-        walled = inner or outer
+        inner = g is not None and wall_layout(g, "inner").count > 0
+        walled = moving_disks(scene)
         self.prm = Params(law_params(c, self.dt), rings_of(g), pair_table(scene, self.dt),
                           self.dt, skin, c.mu_bottom * c.gravity, math.inf,
                           wall_skin=WALL_SKINS * skin if walled else 0.0,

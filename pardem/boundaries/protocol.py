@@ -10,8 +10,11 @@ Its ``Boundary`` descriptor says:
     disks     its glued disks in a scene at t = 0 (``Glued``; none if the scene has no such
               boundary): they become wall disks, infinitely massive rows after the free ones
     moves     whether its disks move: the step loop then places them at every step and the
-              lists are built with a wall skin that covers their travel (Params.wall_disks)
-    surface   whether it has a flat contact surface (the ring contacts, Pairs.wall)
+              lists are built with a wall skin that covers their travel (Params.wall_disks,
+              registry.moving_disks)
+    surface   whether it has a flat contact surface (the ring contacts, Pairs.wall; compiled
+              in by StepOptions.walls, registry.flat_surfaces)
+    present   whether a scene has this boundary
 
 The compiled side is small records and dispatches, as for the normal law (contact/normal.py):
 
@@ -58,4 +61,5 @@ class Boundary(NamedTuple):
     disks: Callable[..., Glued]
     moves: bool
     surface: bool
+    present: Callable[..., bool]
     summary: str = ""

@@ -29,3 +29,14 @@ def glued_disks(scene) -> Glued:
 def wall_disk_count(scene) -> int:
     """How many wall disks a scene has, over every boundary."""
     return sum(b.disks(scene).radius.size for b in BOUNDARIES)
+
+
+def moving_disks(scene) -> bool:
+    """Whether a boundary whose disks move has disks in the scene: the step loop places them
+    and the lists are built with a wall skin (Params.wall_disks)."""
+    return any(b.moves and b.disks(scene).radius.size for b in BOUNDARIES)
+
+
+def flat_surfaces(scene) -> bool:
+    """Whether the scene has a boundary with a flat contact surface (StepOptions.walls)."""
+    return any(b.surface and b.present(scene) for b in BOUNDARIES)

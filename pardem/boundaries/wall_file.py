@@ -131,4 +131,5 @@ def file_disks(scene) -> Glued:
 
 WALL_FILE = Boundary(
     "wall-disk file", (KEY, TABLES), (FIXED_WALL,), file_disks, moves=False, surface=False,
+    present=lambda scene: scene.wall_disks is not None,
     summary="fixed wall disks at the places a file gives (free scenes)")

@@ -226,6 +226,6 @@ def ring_disks(scene) -> Glued:
 
 RINGS = Boundary(
     "rings", ("[geometry]",), (INNER_WALL, OUTER_WALL),
-    ring_disks, moves=True, surface=True,
+    ring_disks, moves=True, surface=True, present=lambda scene: scene.geometry is not None,
     summary="the Couette cell's two rings: flat surfaces and glued disks, the inner ring "
             "turning, the outer one compressing")
