@@ -28,13 +28,13 @@ def work_size(o):
 
 
 @nb.njit(**INLINE)
-def lane_contact(work, lane, reach, law, o, defer):
+def lane_contact(work, lane, reach, law, o):
     """pair_force on one lane of the work rows: outputs and updated history written back
-    there; returns ``(active, flagged)`` (flagged: deferred, redo without ``defer``)."""
+    there; returns whether the pair is within reach of a force."""
     lc_hw = history_width(o)
     lc_in = W_HIST * BATCH + lane
     lc_out = (W_HIST + lc_hw) * BATCH + lane
-    if o.eta and defer:  # bookkeeping, independent of the deferred branches: once per pair
+    if o.eta:  # bookkeeping beside the law
         lc_e = eta_column(o) * BATCH
         lc_ex, lc_ey = pair_eta(
             (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
@@ -50,12 +50,12 @@ def lane_contact(work, lane, reach, law, o, defer):
     lc_xr = work[lc_in + rolling_column(o) * BATCH] if o.rolling else 0.0
     lc_hn = work[lc_in] if normal_width(o) else 0.0
     (lc_act, lc_fxl, lc_fyl, lc_til, lc_tjl, lc_fnl, lc_ftxl, lc_ftyl, lc_xoxl, lc_xoyl, lc_xrl,
-     lc_hnl, lc_again) = pair_force(
+     lc_hnl, _) = pair_force(
         (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
         (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
         (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
         (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]), (lc_xix, lc_xiy), lc_xr, lc_hn,
-        reach, law, o, defer)
+        reach, law, o)
     work[W_FX * BATCH + lane] = lc_fxl
     work[W_FY * BATCH + lane] = lc_fyl
     work[W_TI * BATCH + lane] = lc_til
@@ -70,4 +70,4 @@ def lane_contact(work, lane, reach, law, o, defer):
         work[lc_out + rolling_column(o) * BATCH] = lc_xrl
     if normal_width(o):
         work[lc_out] = lc_hnl
-    return lc_act, lc_again
+    return lc_act

@@ -114,6 +114,6 @@ def test_contact_law_with_zero_tangential_velocity_and_zero_spring(mu, compiled)
     prm = LawParams(dt=4.353e-5, k_n=K_N, gamma_n=GAMMA_N, k_t=267.1, mu=mu)
     fn, ftx, fty, _, xix, xiy, _, _, sliding = law((1.0, 0.0), 1e-4, (-0.1, 0.0), (0.0, 0.0),
                                                    0.0, 0.0, 0.0, (0.0, 0.0), prm,
-                                                   ContactOptions(), False)
+                                                   ContactOptions())
     assert fn == K_N * 1e-4 + GAMMA_N * 0.1
     assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.0) and not sliding
