@@ -18,15 +18,16 @@ FULL = ContactOptions(damping=True, friction=True, clip=False, window=True)
 def law(n, delta, v, spring, opts=FULL, jitted=True, xr=0.0, a_red=0.0, w=(0.0, 0.0)):
     """contact_law -> (fn, ftx, fty, fr, xix, xiy, xr, sliding)."""
     fn = contact_law if jitted else contact_law.py_func
-    r = fn(n, delta, v, spring, xr, 0.0, a_red, w, LAW, opts)
-    return r[:7] + r[8:]  # without the normal law's history (none for the linear law)
+    f, h = fn(n, delta, v, spring, xr, 0.0, a_red, w, LAW, opts)
+    return f.fn, f.ftx, f.fty, f.fr, h.xix, h.xiy, h.xr, f.sliding  # hn: none for the linear law
 
 
 def pair(d, a, dv, w, spring, reach=0.0, opts=FULL, jitted=True, xr=0.0):
     """pair_force -> (active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, sliding)."""
     fn = pair_force if jitted else pair_force.py_func
-    r = fn(d, a, dv, w, spring, xr, 0.0, reach, LAW, opts)
-    return r[:11] + r[12:]  # without the normal law's history (none for the linear law)
+    p, f, h = fn(d, a, dv, w, spring, xr, 0.0, reach, LAW, opts)
+    return (p.active, p.fx, p.fy, p.tau_i, p.tau_j, f.fn, f.ftx, f.fty, h.xix, h.xiy, h.xr,
+            f.sliding)  # hn: none for the linear law
 
 
 # Hand computation (SPEC §3): a_i = a_j = 5 mm, r_i - r_j = (9 mm, 0) so n = (1, 0), delta = 1 mm;
@@ -191,19 +192,19 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     for k in range(count):
         i, j = pr.i[k], pr.j[k]
         spring = tuple(xi0[k]) if friction else (0.0, 0.0)
-        r = pair_force((ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1]),
+        p, c, h = pair_force((ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1]),
                        (ps.radius[i], ps.radius[j]),
                        (ps.v_pred[i, 0] - ps.v_pred[j, 0], ps.v_pred[i, 1] - ps.v_pred[j, 1]),
                        (ps.w_pred[i], ps.w_pred[j]), spring, 0.0, 0.0, sim.clock.reach[0],
                        sim.prm.law, sim.contact)
-        xi[k] = r[8:10]
-        rec[k] = r[5:8]
-        n_sliding += r[12]
-        if r[0]:
-            f[i] += r[1:3]
-            f[j] -= r[1:3]
-            tau[i] += r[3]
-            tau[j] += r[4]
+        xi[k] = h.xix, h.xiy
+        rec[k] = c.fn, c.ftx, c.fty
+        n_sliding += c.sliding
+        if p.active:
+            f[i] += (p.fx, p.fy)
+            f[j] -= (p.fx, p.fy)
+            tau[i] += p.tau_i
+            tau[j] += p.tau_j
     # several batches, the last one partial
     assert count > 2 * BATCH and count % BATCH
     # the loop leaves out pairs farther apart than their own half step of approach; some of
