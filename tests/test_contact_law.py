@@ -16,17 +16,18 @@ FULL = ContactOptions(damping=True, friction=True, clip=False, window=True)
 
 
 def law(n, delta, v, spring, opts=FULL, jitted=True, xr=0.0, a_red=0.0, w=(0.0, 0.0)):
-    """contact_law -> (fn, ftx, fty, fr, xix, xiy, xr, flag)."""
+    """contact_law -> (fn, ftx, fty, fr, xix, xiy, xr, sliding)."""
     fn = contact_law if jitted else contact_law.py_func
-    r = fn(n, delta, v, spring, xr, 0.0, a_red, w, LAW, opts, False)
-    return r[:7] + r[8:]  # without the normal law's history (none for the linear law)
+    f, h = fn(n, delta, v, spring, xr, 0.0, a_red, w, LAW, opts)
+    return f.fn, f.ftx, f.fty, f.fr, h.xix, h.xiy, h.xr, f.sliding  # hn: none for the linear law
 
 
-def pair(d, a, dv, w, spring, reach=0.0, opts=FULL, defer=False, jitted=True, xr=0.0):
-    """pair_force -> (active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, flag)."""
+def pair(d, a, dv, w, spring, reach=0.0, opts=FULL, jitted=True, xr=0.0):
+    """pair_force -> (active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, sliding)."""
     fn = pair_force if jitted else pair_force.py_func
-    r = fn(d, a, dv, w, spring, xr, 0.0, reach, LAW, opts, defer)
-    return r[:11] + r[12:]  # without the normal law's history (none for the linear law)
+    p, f, h = fn(d, a, dv, w, spring, xr, 0.0, reach, LAW, opts)
+    return (p.active, p.fx, p.fy, p.tau_i, p.tau_j, f.fn, f.ftx, f.fty, h.xix, h.xiy, h.xr,
+            f.sliding)  # hn: none for the linear law
 
 
 # Hand computation (SPEC §3): a_i = a_j = 5 mm, r_i - r_j = (9 mm, 0) so n = (1, 0), delta = 1 mm;
@@ -161,9 +162,9 @@ def test_damping_is_weighted_by_the_in_contact_fraction_of_the_step():
 @pytest.mark.parametrize("friction", [True, False])
 def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     """The batched pair loop gives the same bits as summing standalone kernel calls in pair order
-    (guards against compiler inlining and the SIMD law with deferred branches changing
-    results, and against the loop leaving out a pair that has a force), and records each
-    pair's applied normal and tangential force."""
+    (guards against compiler inlining and the SIMD law's selects changing results, and
+    against the loop leaving out a pair that has a force), and records each pair's applied
+    normal and tangential force."""
     from helpers import dense_packing, free_scene
 
     from pardem.simulation import Simulation
@@ -191,19 +192,19 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
     for k in range(count):
         i, j = pr.i[k], pr.j[k]
         spring = tuple(xi0[k]) if friction else (0.0, 0.0)
-        r = pair_force((ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1]),
+        p, c, h = pair_force((ps.x[i, 0] - ps.x[j, 0], ps.x[i, 1] - ps.x[j, 1]),
                        (ps.radius[i], ps.radius[j]),
                        (ps.v_pred[i, 0] - ps.v_pred[j, 0], ps.v_pred[i, 1] - ps.v_pred[j, 1]),
                        (ps.w_pred[i], ps.w_pred[j]), spring, 0.0, 0.0, sim.clock.reach[0],
-                       sim.prm.law, sim.contact, False)
-        xi[k] = r[8:10]
-        rec[k] = r[5:8]
-        n_sliding += r[12]
-        if r[0]:
-            f[i] += r[1:3]
-            f[j] -= r[1:3]
-            tau[i] += r[3]
-            tau[j] += r[4]
+                       sim.prm.law, sim.contact)
+        xi[k] = h.xix, h.xiy
+        rec[k] = c.fn, c.ftx, c.fty
+        n_sliding += c.sliding
+        if p.active:
+            f[i] += (p.fx, p.fy)
+            f[j] -= (p.fx, p.fy)
+            tau[i] += p.tau_i
+            tau[j] += p.tau_j
     # several batches, the last one partial
     assert count > 2 * BATCH and count % BATCH
     # the loop leaves out pairs farther apart than their own half step of approach; some of
@@ -242,12 +243,11 @@ def test_compiled_force_loop_equals_sum_of_kernel_calls(friction):
             assert pr.hist.size == 0 and not xi.any()
 
 
-@pytest.mark.parametrize("jitted", [True, False])
-def test_deferred_law_is_exact_without_a_redo(jitted):
-    """The batched loop computes every pair in SIMD lanes (``defer``) and would redo flagged
-    ones one by one. That pass must give the full law's bits for every contact: sliding ones
-    (their cap computed with selects) and those within half a step of touching (the damping's
-    in-contact fraction computed in every lane and selected), and flag none."""
+def test_compiled_law_with_selects_equals_python_arithmetic():
+    """The compiled law computes the Coulomb cap and the damping window's in-contact fraction
+    in every lane and selects (so that the batched loop stays vectorised, with no pair redone);
+    its bits must equal plain Python's arithmetic of the same law for every kind of contact:
+    sliding, within half a step of touching, and plain."""
     rng = np.random.default_rng(11)
     flagged = {"sliding": 0, "window": 0, "plain": 0}
     opts = FULL._replace(rolling=True, tangential_damping=True)
@@ -261,15 +261,15 @@ def test_deferred_law_is_exact_without_a_redo(jitted):
         xix, xiy = rng.normal(0, 2e-4, 2)
         xr = rng.normal(0, 1e-4)
         args = ((dx, dy), (ai, aj), (dvx, dvy), (wi, wj), (xix, xiy), 2e-4, opts)
-        full = pair(*args, defer=False, jitted=jitted, xr=xr)
-        deferred = pair(*args, defer=True, jitted=jitted, xr=xr)
+        full = pair(*args, jitted=False, xr=xr)
+        compiled = pair(*args, jitted=True, xr=xr)
         # the window is partial while the overlap is below half a step's change of it
         nx, ny = dx / dist, dy / dist
         s = ai * wi + aj * wj
         vn = (dvx + s * ny) * nx + (dvy - s * nx) * ny
         window = full[0] and ai + aj - dist < 0.5 * abs(vn) * LAW.dt
-        assert deferred[0] == full[0] and not deferred[11]
-        bits = [np.array(r[1:11]).view(np.int64) for r in (deferred, full)]
+        assert compiled[0] == full[0] and compiled[11] == full[11]
+        bits = [np.array(r[1:11]).view(np.int64) for r in (compiled, full)]
         np.testing.assert_array_equal(*bits)
         flagged["window" if window else "sliding" if full[11] else "plain"] += full[0]
     assert min(flagged.values()) > 100, flagged

@@ -83,11 +83,11 @@ def test_hertz_tangential_stiffness_follows_the_contact_radius():
     law = law_params(Contact(**HERTZ), 1e-5)
     g_star = E / (2 * (1 + NU)) / (2 * (2 - NU))
     for delta in (1e-6, 4e-6):
-        out = contact_law((1.0, 0.0), delta, (0.0, 1e-3), (0.0, 0.0), 0.0, 0.0, R_STAR,
-                          (0.0, 0.0), law, ContactOptions(damping=False, normal=1), False)
+        force, _ = contact_law((1.0, 0.0), delta, (0.0, 1e-3), (0.0, 0.0), 0.0, 0.0, R_STAR,
+                               (0.0, 0.0), law, ContactOptions(damping=False, normal=1))
         k_t = 8 * g_star * math.sqrt(R_STAR * delta)
-        assert out[2] == pytest.approx(-k_t * 1e-3 * 1e-5, rel=1e-12)
-        assert out[0] == pytest.approx(4 / 3 * E_STAR * math.sqrt(R_STAR) * delta**1.5,
+        assert force.fty == pytest.approx(-k_t * 1e-3 * 1e-5, rel=1e-12)
+        assert force.fn == pytest.approx(4 / 3 * E_STAR * math.sqrt(R_STAR) * delta**1.5,
                                        rel=1e-12)
 
 
@@ -173,10 +173,10 @@ def test_luding_unloading_path_by_hand():
     d0 = 0.5e-3  # (1 - k_1/k_2) delta_max
     hn, forces = 0.0, []
     for delta in (0.5e-3, 1e-3, 0.6e-3, 0.1e-3, 0.8e-3):
-        out = contact_law((1.0, 0.0), delta, (0.0, 0.0), (0.0, 0.0), 0.0, hn, R_STAR,
-                          (0.0, 0.0), law, o, False)
-        hn = out[7]
-        forces.append(out[0])
+        force, history = contact_law((1.0, 0.0), delta, (0.0, 0.0), (0.0, 0.0), 0.0, hn, R_STAR,
+                                     (0.0, 0.0), law, o)
+        hn = history.hn
+        forces.append(force.fn)
     # at 0.1 mm k_2 (delta - d0) = -0.2816 N pulls harder than -k_c delta = -0.0176 N: capped,
     # delta_max moves to delta (k_2 + k_c)/(k_2 - k_1) = 0.25 mm; reloading to 0.8 mm passes it
     expected = [K1 * 0.5e-3, K1 * 1e-3, k2 * (0.6e-3 - d0), -kc * 0.1e-3, K1 * 0.8e-3]

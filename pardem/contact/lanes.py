@@ -81,13 +81,13 @@ def lane_law(work, lane, law, o):
 
 
 @nb.njit(**INLINE)
-def lane_contact(work, lane, reach, law, o, defer):
+def lane_contact(work, lane, reach, law, o):
     """pair_force on one lane of the work rows: outputs and updated history written back
-    there; returns ``(active, flagged)`` (flagged: deferred, redo without ``defer``)."""
+    there; returns whether the pair is within reach of a force."""
     lc_hw = history_width(o)
     lc_in = W_HIST * BATCH + lane
     lc_out = (W_HIST + lc_hw) * BATCH + lane
-    if o.eta and defer:  # bookkeeping, independent of the deferred branches: once per pair
+    if o.eta:  # bookkeeping beside the law
         lc_e = eta_column(o) * BATCH
         lc_ex, lc_ey = pair_eta(
             (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
@@ -102,25 +102,24 @@ def lane_contact(work, lane, reach, law, o, defer):
     lc_xiy = work[lc_in + lc_sp + BATCH] if o.friction else 0.0
     lc_xr = work[lc_in + rolling_column(o) * BATCH] if o.rolling else 0.0
     lc_hn = work[lc_in] if normal_width(o) else 0.0
-    (lc_act, lc_fxl, lc_fyl, lc_til, lc_tjl, lc_fnl, lc_ftxl, lc_ftyl, lc_xoxl, lc_xoyl, lc_xrl,
-     lc_hnl, lc_again) = pair_force(
+    lc_p, lc_c, lc_h = pair_force(
         (work[W_DX * BATCH + lane], work[W_DY * BATCH + lane]),
         (work[W_AI * BATCH + lane], work[W_AJ * BATCH + lane]),
         (work[W_DVX * BATCH + lane], work[W_DVY * BATCH + lane]),
         (work[W_WI * BATCH + lane], work[W_WJ * BATCH + lane]), (lc_xix, lc_xiy), lc_xr, lc_hn,
-        reach, lane_law(work, lane, law, o), o, defer)
-    work[W_FX * BATCH + lane] = lc_fxl
-    work[W_FY * BATCH + lane] = lc_fyl
-    work[W_TI * BATCH + lane] = lc_til
-    work[W_TJ * BATCH + lane] = lc_tjl
-    work[W_FN * BATCH + lane] = lc_fnl
-    work[W_FTX * BATCH + lane] = lc_ftxl
-    work[W_FTY * BATCH + lane] = lc_ftyl
+        reach, lane_law(work, lane, law, o), o)
+    work[W_FX * BATCH + lane] = lc_p.fx
+    work[W_FY * BATCH + lane] = lc_p.fy
+    work[W_TI * BATCH + lane] = lc_p.tau_i
+    work[W_TJ * BATCH + lane] = lc_p.tau_j
+    work[W_FN * BATCH + lane] = lc_c.fn
+    work[W_FTX * BATCH + lane] = lc_c.ftx
+    work[W_FTY * BATCH + lane] = lc_c.fty
     if o.friction:
-        work[lc_out + lc_sp] = lc_xoxl
-        work[lc_out + lc_sp + BATCH] = lc_xoyl
+        work[lc_out + lc_sp] = lc_h.xix
+        work[lc_out + lc_sp + BATCH] = lc_h.xiy
     if o.rolling:
-        work[lc_out + rolling_column(o) * BATCH] = lc_xrl
+        work[lc_out + rolling_column(o) * BATCH] = lc_h.xr
     if normal_width(o):
-        work[lc_out] = lc_hnl
-    return lc_act, lc_again
+        work[lc_out] = lc_h.hn
+    return lc_p.active

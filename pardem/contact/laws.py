@@ -25,9 +25,8 @@ def normal_elastic(delta, k_n):
 
 
 @nb.njit(**INLINE)
-def normal_viscous(delta, vn, law, window, defer):
+def normal_viscous(delta, vn, law, window):
     """Viscous normal damping (eq. 1.2) as the term to subtract from f_n: gamma_n v_n (N).
-    Returns ``(term, redo)``; redo is always False (``defer`` is kept for the callers).
 
     Without ``window`` it acts in full while delta > 0 (plain velocity Verlet). With it, a pair
     within half a step of touching gets the in-contact fraction of the step: velocity Verlet
@@ -38,13 +37,13 @@ def normal_viscous(delta, vn, law, window, defer):
     about half of the listed pairs that reach contact_law are that close (overlaps ~1e-5 d),
     and redoing them one by one cost ~15 ns per particle-step."""
     if not window:
-        return (law.gamma_n * vn if delta > 0.0 else 0.0), False
+        return law.gamma_n * vn if delta > 0.0 else 0.0
     nv_half = 0.5 * abs(vn) * law.dt  # overlap change over half a step
     nv_part = 0.5 + 0.5 * delta / nv_half  # inf or nan where nv_half = 0: not selected
     nv_part = nv_part if nv_part > 0.0 else 0.0  # a select, where max() would branch on NaN
     nv_part = nv_part if nv_half > 0.0 else 0.0
     nv_w = 1.0 if delta >= nv_half else nv_part
-    return nv_w * law.gamma_n * vn, False
+    return nv_w * law.gamma_n * vn
 
 
 @nb.njit(**INLINE)

@@ -148,33 +148,58 @@ def eta_column(o):
 
 # ----------------------------------------------------------------- the composed law
 
+class ContactForce(NamedTuple):
+    """What contact_law gives on i: the normal force fn (N, along n), the tangential force
+    (ftx, fty) (N), the rolling resistance fr (N; a' fr is its torque on i) and whether the
+    contact slides (held at the Coulomb cap)."""
+
+    fn: float
+    ftx: float
+    fty: float
+    fr: float
+    sliding: bool
+
+
+class History(NamedTuple):
+    """A contact's history: tangential spring (xix, xiy), rolling spring xr (m), normal.py's hn."""
+
+    xix: float
+    xiy: float
+    xr: float
+    hn: float
+
+
+class PairForce(NamedTuple):
+    """pair_force's ``active`` (within reach of a force), force (fx, fy) on i (N; j gets -f)
+    and torques tau_i, tau_j (N m)."""
+
+    active: bool
+    fx: float
+    fy: float
+    tau_i: float
+    tau_j: float
+
+
 @nb.njit(**INLINE)
-def contact_law(n, delta, v, spring, xr, hn, a_red, w, law, o, defer):
-    """``-> (fn, ftx, fty, fr, xix, xiy, xr, hn, flag)`` for a contact with unit normal n = (nx, ny),
-    overlap delta (m; <= 0: within half a step of touching, which gets only its share of the
-    damping) and contact-point velocity v = (vx, vy) (m/s). ``spring`` = (xix, xiy) and xr
-    (the rolling spring) and hn (the normal law's, normal.py) are the histories before this
-    step; the returned ones are updated. a_red (m): the reduced radius a'; w = (w_i, w_j):
-    the spins. f_r (N) is the rolling
-    resistance (a' f_r is its torque on i). ``flag``: sliding; with ``defer``, whether a
-    deferred branch was needed and the contact must be redone without ``defer`` (a sliding
-    contact is exact either way)."""
+def contact_law(n, delta, v, spring, xr, hn, a_red, w, law, o):
+    """``-> (ContactForce, History)`` of a contact with unit normal n = (nx, ny), overlap delta
+    (m; <= 0: within half a step of touching, which gets only its share of the damping) and
+    contact-point velocity v = (vx, vy) (m/s). ``spring`` = (xix, xiy), xr and hn: its History
+    before this step. a_red (m): the reduced radius a'; w = (w_i, w_j): the spins."""
     cl_nx, cl_ny = n
     cl_vx, cl_vy = v
     cl_xix, cl_xiy = spring
     cl_xr = xr
     cl_vn = cl_vx * cl_nx + cl_vy * cl_ny  # = -delta_dot
-    cl_redo = False
     cl_fn, cl_hn = normal_force(delta, a_red, hn, law, o)
     if o.damping:
-        cl_damp, cl_redo = normal_viscous(delta, cl_vn, law, o.window, defer)
-        cl_fn -= cl_damp
+        cl_fn -= normal_viscous(delta, cl_vn, law, o.window)
     if o.clip:
         cl_fn = max(cl_fn, 0.0)
     if not (o.friction or o.rolling):
-        return cl_fn, 0.0, 0.0, 0.0, cl_xix, cl_xiy, cl_xr, cl_hn, cl_redo
+        return ContactForce(cl_fn, 0.0, 0.0, 0.0, False), History(cl_xix, cl_xiy, cl_xr, cl_hn)
     if delta <= 0.0:  # within reach of a contact, not touching: no springs
-        return cl_fn, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, cl_hn, cl_redo
+        return ContactForce(cl_fn, 0.0, 0.0, 0.0, False), History(0.0, 0.0, 0.0, cl_hn)
     cl_ftx, cl_fty, cl_fr, cl_sliding = 0.0, 0.0, 0.0, False
     if o.friction:
         cl_kt = tangential_stiffness(delta, a_red, law, o)
@@ -201,19 +226,17 @@ def contact_law(n, delta, v, spring, xr, hn, a_red, w, law, o, defer):
         cl_xr = cl_xr + a_red * (cl_wi - cl_wj) * law.dt
         cl_fr, cl_rcap = rolling_limit(-law.k_r * cl_xr, cl_fn, law.mu_r)
         cl_xr = -cl_fr / law.k_r if cl_rcap else cl_xr
-    return (cl_fn, cl_ftx, cl_fty, cl_fr, cl_xix, cl_xiy, cl_xr, cl_hn,
-            cl_redo if defer else cl_sliding)
+    return (ContactForce(cl_fn, cl_ftx, cl_fty, cl_fr, cl_sliding),
+            History(cl_xix, cl_xiy, cl_xr, cl_hn))
 
 
 @nb.njit(**INLINE)
-def pair_force(d, a, dv, w, spring, xr, hn, reach, law, o, defer):
-    """Disk-disk contact. d = r_i - r_j, a = (a_i, a_j) radii, dv = v_i - v_j, w = (w_i, w_j)
-    spins; spring, xr and hn: the histories (contact_law); reach (m) bounds how far any overlap
-    can change in half a step (pairs that close get their share of damping). Returns
-    ``(active, fx, fy, tau_i, tau_j, fn, ftx, fty, xix, xiy, xr, hn, flag)``: force on i (j gets
-    -f), torques on i and j, the normal and tangential force on i, the updated histories and
-    contact_law's flag. Swapping i and j negates the force bit for bit (every operation is
-    odd in the swap)."""
+def pair_force(d, a, dv, w, spring, xr, hn, reach, law, o):
+    """``-> (PairForce, ContactForce, History)`` of a disk-disk contact (zeros beyond reach).
+    d = r_i - r_j, a = (a_i, a_j) radii, dv = v_i - v_j, w = (w_i, w_j) spins; spring, xr and
+    hn: the history (contact_law); reach (m) bounds how far any overlap can change in half a
+    step (pairs that close get their share of damping). Swapping i and j negates the force bit
+    for bit (every operation is odd in the swap)."""
     pf_dx, pf_dy = d
     pf_ai, pf_aj = a
     pf_dvx, pf_dvy = dv
@@ -222,7 +245,8 @@ def pair_force(d, a, dv, w, spring, xr, hn, reach, law, o, defer):
     pf_rs = pf_ai + pf_aj
     pf_lim = pf_rs + reach if o.damping and o.window else pf_rs
     if pf_r2 >= pf_lim * pf_lim:
-        return (False, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, False)
+        return (PairForce(False, 0.0, 0.0, 0.0, 0.0), ContactForce(0.0, 0.0, 0.0, 0.0, False),
+                History(0.0, 0.0, 0.0, 0.0))
     pf_dist = math.sqrt(pf_r2)
     pf_inv = 1.0 / pf_dist
     pf_nx = pf_dx * pf_inv
@@ -231,18 +255,17 @@ def pair_force(d, a, dv, w, spring, xr, hn, reach, law, o, defer):
     pf_s = pf_ai * pf_wi + pf_aj * pf_wj
     pf_ared = pf_ai * pf_aj / pf_rs  # the rolling spring's a' and Hertz's R*
     # v_ij = dv - s (z x n), with z x n = (-ny, nx)
-    pf_fn, pf_ftx, pf_fty, pf_fr, pf_xix, pf_xiy, pf_xr, pf_hn, pf_flag = contact_law(
-        (pf_nx, pf_ny), pf_delta, (pf_dvx + pf_s * pf_ny, pf_dvy - pf_s * pf_nx), spring, xr,
-        hn, pf_ared, w, law, o, defer)
+    pf_v = (pf_dvx + pf_s * pf_ny, pf_dvy - pf_s * pf_nx)
+    pf_c, pf_h = contact_law((pf_nx, pf_ny), pf_delta, pf_v, spring, xr, hn, pf_ared, w, law, o)
     # torque of f_t about each centre, lever (a - delta/2) along -n for i and +n for j
-    pf_nxft = pf_nx * pf_fty - pf_ny * pf_ftx
+    pf_nxft = pf_nx * pf_c.fty - pf_ny * pf_c.ftx
     pf_ti = -(pf_ai - 0.5 * pf_delta) * pf_nxft
     pf_tj = -(pf_aj - 0.5 * pf_delta) * pf_nxft
     if o.rolling:
-        pf_ti += pf_ared * pf_fr
-        pf_tj -= pf_ared * pf_fr
-    return (True, pf_fn * pf_nx + pf_ftx, pf_fn * pf_ny + pf_fty, pf_ti, pf_tj, pf_fn, pf_ftx,
-            pf_fty, pf_xix, pf_xiy, pf_xr, pf_hn, pf_flag)
+        pf_ti += pf_ared * pf_c.fr
+        pf_tj -= pf_ared * pf_c.fr
+    return (PairForce(True, pf_c.fn * pf_nx + pf_c.ftx, pf_c.fn * pf_ny + pf_c.fty, pf_ti,
+                      pf_tj), pf_c, pf_h)
 
 
 @nb.njit(**INLINE)
@@ -285,15 +308,14 @@ def surface_contact(n, delta, a, v, w, hist, i, law, o):
     sc_xiy = hist[i, sc_sp + 1] if o.friction else 0.0
     sc_xr = hist[i, rolling_column(o)] if o.rolling else 0.0
     sc_hn = hist[i, 0] if normal_width(o) else 0.0
-    sc_fn, sc_ftx, sc_fty, sc_fr, sc_xix, sc_xiy, sc_xr, sc_hn, _ = contact_law(
-        n, delta, v, (sc_xix, sc_xiy), sc_xr, sc_hn, a, w, law, o, False)
+    sc_f, sc_h = contact_law(n, delta, v, (sc_xix, sc_xiy), sc_xr, sc_hn, a, w, law, o)
     if normal_width(o):
-        hist[i, 0] = sc_hn
+        hist[i, 0] = sc_h.hn
     if o.friction:
-        hist[i, sc_sp] = sc_xix
-        hist[i, sc_sp + 1] = sc_xiy
+        hist[i, sc_sp] = sc_h.xix
+        hist[i, sc_sp + 1] = sc_h.xiy
     if o.rolling:
-        hist[i, rolling_column(o)] = sc_xr
+        hist[i, rolling_column(o)] = sc_h.xr
     if o.eta:
         sc_c = eta_column(o)
         sc_ex, sc_ey = 0.0, 0.0
@@ -303,10 +325,10 @@ def surface_contact(n, delta, a, v, w, hist, i, law, o):
                                             sc_vx, sc_vy, sc_vn, law.dt)
         hist[i, sc_c] = sc_ex
         hist[i, sc_c + 1] = sc_ey
-    sc_torque = -(a - 0.5 * delta) * (sc_nx * sc_fty - sc_ny * sc_ftx)
+    sc_torque = -(a - 0.5 * delta) * (sc_nx * sc_f.fty - sc_ny * sc_f.ftx)
     if o.rolling:
-        sc_torque += a * sc_fr
-    return sc_fn, sc_ftx, sc_fty, sc_torque
+        sc_torque += a * sc_f.fr
+    return sc_f.fn, sc_f.ftx, sc_f.fty, sc_torque
 
 
 @nb.njit(**INLINE)

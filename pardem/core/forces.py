@@ -176,7 +176,7 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure, deep):
             for c in range(n_hist):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
-            touching, _ = lane_contact(work, ln, reach, prm.law, o, True)  # nothing deferred
+            touching = lane_contact(work, ln, reach, prm.law, o)
             work[W_ACT * BATCH + ln] = (2.0 if too_deep(work, ln) else 1.0) if touching else 0.0
         if measure:
             for ln in range(m):
@@ -297,7 +297,7 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
         if m == 0:
             break
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
-            touching, _ = lane_contact(work, ln, reach, prm.law, o, True)  # nothing deferred
+            touching = lane_contact(work, ln, reach, prm.law, o)
             work[W_ACT * BATCH + ln] = (2.0 if too_deep(work, ln) else 1.0) if touching else 0.0
         cur = np.uint64(pi[queue[0]])
         acc_x = sf[cur + cur]

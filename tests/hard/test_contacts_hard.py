@@ -112,8 +112,8 @@ def test_contact_law_with_zero_tangential_velocity_and_zero_spring(mu, compiled)
 
     law = contact_law if compiled else contact_law.py_func
     prm = LawParams(dt=4.353e-5, k_n=K_N, gamma_n=GAMMA_N, k_t=267.1, mu=mu)
-    fn, ftx, fty, _, xix, xiy, _, _, sliding = law((1.0, 0.0), 1e-4, (-0.1, 0.0), (0.0, 0.0),
-                                                   0.0, 0.0, 0.0, (0.0, 0.0), prm,
-                                                   ContactOptions(), False)
-    assert fn == K_N * 1e-4 + GAMMA_N * 0.1
-    assert (ftx, fty, xix, xiy) == (0.0, 0.0, 0.0, 0.0) and not sliding
+    force, history = law((1.0, 0.0), 1e-4, (-0.1, 0.0), (0.0, 0.0), 0.0, 0.0, 0.0, (0.0, 0.0),
+                         prm, ContactOptions())
+    assert force.fn == K_N * 1e-4 + GAMMA_N * 0.1
+    assert (force.ftx, force.fty, history.xix, history.xiy) == (0.0, 0.0, 0.0, 0.0)
+    assert not force.sliding
