@@ -159,6 +159,7 @@ class SimulationBuilder:
 
     @property
     def step(self) -> int:
+        """Steps taken since t = 0 (a restart or branch continues the count)."""
         return int(self.clock.step[0])
 
     def log(self, text: str) -> None:
@@ -176,6 +177,7 @@ class SimulationBuilder:
             sys.stderr.write(f"pardem: {text}\n")
 
     def breakdown(self) -> str:
+        """The wall time per stage as the table a run prints at its end."""
         return breakdown(self)
 
     def reset_timers(self) -> None:

@@ -46,21 +46,26 @@ class SimulationError(RuntimeError):
 
 
 class Simulation(SimulationBuilder, StateViews, RunOutput):
-    """One scene's state and run loop: ``Simulation(scene, out_dir=None, restart=None,
-    comm=None, overwrite=False, cut="auto", branch=None)``, ``run(end=None, progress=True)``,
-    ``advance_steps(n)``. ``restart``: a checkpoint of this scene, continued exactly;
-    ``branch``: a prepared run's checkpoint, continued with this scene's material and drive
-    (output/branch.py). ``out_dir`` must not hold another run unless ``overwrite``
-    (output/folder.py). ``cut``: how the annulus is cut among the ranks ("auto": the cut with
-    the fewest ghosts; "sectors"; "RxA": R rings of A sectors); results do not depend on it.
+    """One scene's state and its run loop.
+
+    ``Simulation(scene, out_dir=None, restart=None, comm=None, overwrite=False, cut="auto",
+    branch=None)`` builds the state of ``scene`` (a ``Scene``, from ``load_scene``): the
+    particles placed at t = 0, or ``restart``, a checkpoint file or run folder of the same
+    scene, continued exactly (``pardem run --restart``), or ``branch``, a prepared run's
+    checkpoint continued with this scene's material and drive (``pardem run --from``; what
+    carries over: docs/running.md). ``out_dir``: the run folder that ``run`` writes into
+    (None: no files); it must not hold another run unless ``overwrite``. ``comm``: an mpi4py
+    communicator to run on (None: serial, MPI never loaded). ``cut``: how the annulus is cut
+    among the ranks ("auto": the cut with the fewest ghosts; "sectors"; "RxA": R rings of A
+    sectors); results do not depend on it.
 
     Public state: ``time`` (s), ``step``, ``dt`` (s), ``n_free``, ``timers`` (s per stage),
     ``n_rebuilds``, ``rings`` (the in-situ RingAverager after a run with [averaging]).
-    Gathered views (rank 0; None on the others): ``particle_arrays``, ``contacts``,
-    ``ring_contacts``, ``checkpoint_state``. This rank's views: ``local_view``,
-    ``local_tables``. With ``comm`` (an mpi4py communicator) every method that advances,
-    gathers or measures is collective. An exception on one rank leaves the others waiting:
-    a caller must then abort the communicator (``pardem run`` does; so do the tests).
+    Gathered views (rank 0; None on the others): ``particle_arrays``, ``gathered``,
+    ``contacts``, ``ring_contacts``, ``checkpoint_state``. This rank's views: ``local_view``,
+    ``local_tables``. With ``comm`` every method that advances, gathers or measures is
+    collective. An exception on one rank leaves the others waiting: a caller must then abort
+    the communicator (``pardem run`` does; so do the tests).
     """
 
     _warnings: RunWarnings | None = None  # built by the first run()

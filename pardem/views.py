@@ -69,15 +69,22 @@ class StateViews:
         return rows, int(self.clock.n_owned[0]), self.local_tables(n)
 
     def contacts(self) -> dict[str, np.ndarray] | None:
-        """Touching pairs of the whole cell sorted by (gid_lo, gid_hi) (diagnostics.contact_table
-        columns); on rank 0 only (None on the others)."""
+        """Touching pairs of the whole cell sorted by id pair, on rank 0 (None on the others;
+        collective): ``ids`` [M,2] (lower id first), ``normal`` [M,2] (unit, from the second
+        to the first), ``overlap`` [M] (m), ``normal_force`` [M] (N), ``tangential_force``
+        [M,2] (N, on the first), ``mobilised`` [M] (f_t / (mu f_n)), ``sliding`` [M] (1 at the
+        Coulomb limit) and the contact history (e.g. ``spring`` [M,2], m), as the last step
+        applied them (diagnostics.contact_table)."""
         t = self.local_tables().pairs
         del t["index"]
         return self.decomp.gather_rows(t, key="ids")
 
     def ring_contacts(self) -> dict[str, np.ndarray] | None:
-        """Contacts of free particles with the flat ring surfaces, sorted by particle id
-        (diagnostics.ring_contact_table columns without ``index``); rank 0 only."""
+        """Contacts of free particles with the flat ring surfaces, sorted by particle id, on
+        rank 0 (None on the others, and without rings; collective): ``id``, ``ring`` (1 inner,
+        2 outer), ``normal`` [M,2] (from the surface), ``overlap`` (m), ``normal_force`` (N),
+        ``tangential_force`` [M,2] (N) and the contact history (diagnostics.ring_contact_table).
+        """
         t = self.local_tables().rings
         if t is None:
             return None

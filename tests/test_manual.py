@@ -1,6 +1,6 @@
 """The manual: it builds without warnings, its input reference is the scene schema's, the tables
-of its scaling page are rendered from the committed measurements, and the examples it points to
-are valid scenes."""
+of its scaling page are rendered from the committed measurements, the README's test count is
+pytest's, and the examples it points to are valid scenes."""
 
 import subprocess
 import sys
@@ -11,6 +11,7 @@ import pytest
 ROOT = Path(__file__).resolve().parents[1]
 sys.path[:0] = [str(ROOT / "run_scripts" / "tools"), str(ROOT / "run_scripts" / "benchmarks")]
 
+import readme_counts  # noqa: E402
 import scaling_tables  # noqa: E402
 from input_reference import PAGE, render  # noqa: E402
 
@@ -26,6 +27,18 @@ def test_scaling_tables_are_generated_from_the_committed_results():
     page = scaling_tables.PAGE
     assert page.read_text(encoding="utf-8") == scaling_tables.render(), \
         "run: python run_scripts/benchmarks/scaling_tables.py"
+
+
+def test_readme_counts_the_tests_pytest_collects():
+    """The README's "N of the M tests" against pytest's own collection (a subprocess)."""
+    text = readme_counts.README.read_text(encoding="utf-8")
+    assert readme_counts.render(text, readme_counts.collected()) == text, \
+        "run: python run_scripts/tools/readme_counts.py"
+
+
+def test_ci_runs_the_readme_test_command_verbatim():
+    ci = (ROOT / ".ci" / "run").read_text().strip().splitlines()[-1]
+    assert ci.endswith("python -m pytest") and f"\n{ci}\n" in (ROOT / "README.md").read_text()
 
 
 def test_every_key_the_validator_accepts_is_in_the_input_reference():

@@ -71,6 +71,9 @@ class RunOutput:
         return gather_state(self)
 
     def write_checkpoint(self, path: str | Path | None = None) -> None:
+        """The whole state, contact history and ring samples included, into ``path`` (default
+        ``out_dir/checkpoint.h5``; collective, rank 0 writes): what ``restart=`` and
+        ``branch=`` (``pardem run --restart``, ``--from``) read."""
         state = self.checkpoint_state()
         if state is not None:
             save_checkpoint(path or self.out_dir / "checkpoint.h5", *state)
