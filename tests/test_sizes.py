@@ -205,3 +205,24 @@ def test_a_lognormal_tail_wider_than_the_gap_is_refused():
         scene_of({**LOGNORMAL, "diameter_median": 0.03, "diameter_sigma": 0.5, "count": 5},
                  geometry=SMALL_CELL)
     assert "gap must be larger than the largest drawn diameter" in str(e.value)
+
+
+def test_the_tutorials_distribution_example_is_a_valid_scene():
+    """docs/tutorial.md's example in examples/small_dense.toml's cell: it fills the cell to
+    0.816 within the sampling error of the drawn disks' area (4 standard errors)."""
+    import re
+    import tomllib
+    from pathlib import Path
+
+    root = Path(__file__).resolve().parents[1]
+    text = (root / "docs" / "tutorial.md").read_text().split("### A continuous size")[1]
+    example = tomllib.loads(re.search(r"```toml\n(.*?)```", text, re.S).group(1))
+    d = tomllib.loads((root / "examples" / "small_dense.toml").read_text())
+    d["geometry"].update(example["geometry"])
+    d["species"] = example["species"]
+    scene = scene_from_dict(d)
+    disks = species_disks(scene)[0][0]
+    g = scene.geometry
+    se = math.sqrt(disks.size) * np.std(math.pi * disks**2 / 4) / (
+        math.pi * (g.outer_radius**2 - g.inner_radius**2))
+    assert abs(volume_fraction(scene) - 0.816) < 4 * se + 1 / disks.size
