@@ -11,6 +11,7 @@ from helpers import couette_scene
 from pardem.check import volume_fraction
 from pardem.core.scales import smallest_contact_time
 from pardem.core.timestep import resolve_dt
+from pardem.input.placement import initial_configuration
 from pardem.input.sanity import density_warning
 from pardem.input.scene import SceneError, Species
 from pardem.input.scene_file import load_scene, write_scene
@@ -209,7 +210,8 @@ def test_a_lognormal_tail_wider_than_the_gap_is_refused():
 
 def test_the_tutorials_distribution_example_is_a_valid_scene():
     """docs/tutorial.md's example in examples/small_dense.toml's cell: it fills the cell to
-    0.816 within the sampling error of the drawn disks' area (4 standard errors)."""
+    0.816 within the sampling error of the drawn disks' area (4 standard errors), and its
+    disks can be placed."""
     import re
     import tomllib
     from pathlib import Path
@@ -226,3 +228,4 @@ def test_the_tutorials_distribution_example_is_a_valid_scene():
     se = math.sqrt(disks.size) * np.std(math.pi * disks**2 / 4) / (
         math.pi * (g.outer_radius**2 - g.inner_radius**2))
     assert abs(volume_fraction(scene) - 0.816) < 4 * se + 1 / disks.size
+    assert initial_configuration(scene).n_free == disks.size  # the disks fit at the start
