@@ -21,6 +21,7 @@ from .core.stability import stability_limit
 from .core.timestep import off_step_text, resolve_step
 from .boundaries.walls import global_volume_fraction
 from .input.sanity import density_warning
+from .input.species import free_area
 from .parallel import usable_cores
 
 REFERENCE_RATE = 25e6
@@ -37,7 +38,8 @@ def volume_fraction(scene: Scene) -> float | None:
     half of every wall disk, over pi (R_o^2 - R_i^2) (the paper's v-bar); None for free
     scenes."""
     g = scene.geometry
-    return None if g is None else global_volume_fraction(g, scene.species)
+    return None if g is None else global_volume_fraction(
+        g, free_area(scene.species, scene.info.seed, scene.contact.height))
 
 
 def describe(scene: Scene) -> str:

@@ -158,10 +158,9 @@ def wall_area_share(g) -> float:
                for w in (wall_layout(g, "inner"), wall_layout(g, "outer")))
 
 
-def global_volume_fraction(g, species) -> float:
-    """The paper's v-bar: the free disks (``species``' counts) plus half of every wall disk,
-    over pi (R_o^2 - R_i^2) at the final outer radius."""
-    disks = sum(s.count * math.pi * s.diameter**2 / 4 for s in species)
+def global_volume_fraction(g, disks: float) -> float:
+    """The paper's v-bar: the free disks (their area ``disks``, m^2) plus half of every wall
+    disk, over pi (R_o^2 - R_i^2) at the final outer radius."""
     return (disks + wall_area_share(g)) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
 
 

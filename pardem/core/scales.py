@@ -15,6 +15,7 @@ from ..contact.damped_spring import contact_gamma, restitution_beta
 from ..contact.normal import law_of
 from ..contact.pairs import harmonic, own_contacts, pair_contacts, species_count
 from ..input.scene import Scene, SceneError
+from ..input.species import all_disks, species_disks
 
 
 def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
@@ -33,20 +34,17 @@ def smallest_reduced_mass(scene: Scene) -> float:
     species cannot pair with itself. With a single free particle the only partners are walls
     (infinitely massive), so m_red = m.
     """
-    if scene.particles is not None:
-        m = np.asarray(scene.particles.mass)
-        if m.size == 1:
-            return float(m[0])
-        a, b = np.partition(m, 1)[:2]
-    else:
-        ms = sorted((s.mass, s.count) for s in scene.species if s.count > 0)
-        if ms[0][1] >= 2:
-            a = b = ms[0][0]
-        elif len(ms) > 1:
-            a, b = ms[0][0], ms[1][0]
-        else:
-            return float(ms[0][0])
+    # a couette scene's disks as placed: a distribution's lightest drawn disks decide
+    m = np.asarray(scene.particles.mass) if scene.particles is not None else all_disks(scene)[1]
+    if m.size == 1:
+        return float(m[0])
+    a, b = _two_lightest(m)
     return float(a * b / (a + b))
+
+
+def _two_lightest(m: np.ndarray) -> np.ndarray:
+    """The (at most) two smallest of the masses ``m``, ascending."""
+    return np.sort(np.partition(m, 1)[:2] if m.size > 2 else m)
 
 
 def normal_stiffness(scene: Scene, c=None) -> tuple[float, float, float]:
@@ -100,11 +98,11 @@ def pair_reduced_mass(scene: Scene, p: int, q: int) -> float | None:
     a ring is infinitely massive), None if the scene has no such contact."""
     if scene.particles is not None:  # partners past the species: file wall disks, fixed
         s, m = np.asarray(scene.particles.species), np.asarray(scene.particles.mass)
-        lightest = [np.sort(m[s == k])[:2] if k < species_count(scene) else None
+        lightest = [_two_lightest(m[s == k]) if k < species_count(scene) else None
                     for k in (p, q)]
     else:
-        lightest = [np.full(min(scene.species[k].count, 2), scene.species[k].mass)
-                    if k < len(scene.species) else None for k in (p, q)]
+        lightest = [_two_lightest(species_disks(scene)[k][1]) if k < len(scene.species)
+                    else None for k in (p, q)]
     a, b = lightest
     if a is None:  # two rings never touch
         return None
@@ -120,4 +118,8 @@ def free_disks(scene: Scene) -> list[tuple[float, float]]:
     if scene.particles is not None:
         return list(zip(np.asarray(scene.particles.diameter, float),
                         np.asarray(scene.particles.mass, float)))
-    return [(s.diameter, s.mass) for s in scene.species if s.count > 0]
+    kinds: list[tuple[float, float]] = []
+    for s, (d, m) in zip(scene.species, species_disks(scene)):
+        if s.count > 0:  # a distribution: each drawn disk its own kind
+            kinds += zip(d.tolist(), m.tolist()) if s.distributed else [(s.diameter, s.mass)]
+    return kinds

@@ -15,6 +15,7 @@ from ..contact.damped_spring import contact_gamma
 from ..contact.pairs import contact_laws
 from .scales import normal_stiffness, smallest_contact_time, smallest_reduced_mass
 from ..input.scene import Scene
+from ..input.species import all_disks
 
 
 STEPS_PER_CONTACT = 5.0
@@ -45,9 +46,10 @@ def mode_step_limit(w_verlet2: float, w_explicit2: float, c: float) -> float:
 
 def _pair_kinds(scene: Scene) -> list[tuple[float, float, int]]:
     """(radius m, mass kg, count) of each kind of free disk."""
-    if scene.particles is not None:
-        rows = np.column_stack([0.5 * np.asarray(scene.particles.diameter, float),
-                                np.asarray(scene.particles.mass, float)])
+    if scene.particles is not None or any(s.distributed for s in scene.species):
+        d, m = ((scene.particles.diameter, scene.particles.mass) if scene.particles is not None
+                else all_disks(scene))
+        rows = np.column_stack([0.5 * np.asarray(d, float), np.asarray(m, float)])
         kinds, counts = np.unique(rows, axis=0, return_counts=True)
         return [(float(a), float(m), int(c)) for (a, m), c in zip(kinds, counts)]
     return [(0.5 * s.diameter, s.mass, s.count) for s in scene.species if s.count > 0]

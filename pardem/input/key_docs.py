@@ -94,7 +94,18 @@ KEYS = {
                                      "at most 0.9069 for one diameter, 1 for several; \"auto\": "
                                      "the species' counts decide",
     ("species", "name"): "the species' name, unique; `[[contact.pair]]` tables name it",
-    ("species", "diameter"): "disk diameter",
+    ("species", "diameter"): "disk diameter; required unless a `diameter_distribution` is given",
+    ("species", "diameter_distribution"): "`fixed` (every disk has `diameter`), `uniform` "
+                                          "(diameters uniform between `diameter_min` and "
+                                          "`diameter_max`) or `lognormal` (ln d normal with "
+                                          "`diameter_median` and `diameter_sigma`); drawn from "
+                                          "`[scene] seed`; needs `density`",
+    ("species", "diameter_min"): "smallest diameter: uniform's lower end, a log-normal's "
+                                 "optional truncation",
+    ("species", "diameter_max"): "largest diameter: uniform's upper end, a log-normal's "
+                                 "optional truncation",
+    ("species", "diameter_median"): "a log-normal's median diameter",
+    ("species", "diameter_sigma"): "a log-normal's standard deviation of ln d",
     ("species", "mass"): "mass of one disk; required unless `density` is given",
     ("species", "density"): "instead of `mass`: the density of the disks' material, mass = "
                             "density × π (d/2)² h with h the `[contact] height`",

@@ -18,6 +18,7 @@ from typing import NamedTuple
 import numpy as np
 
 from .scene import Scene, SceneError
+from .species import species_disks
 from ..boundaries.registry import glued_disks
 from ..contact.pairs import species_count
 from ..core.state import FREE, OUTER_WALL, ROW_ROOM, Particles, new_particles
@@ -71,8 +72,10 @@ def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
     counts = [s.count for s in scene.species]
     n = sum(counts)
     labels = rng.permutation(np.repeat(np.arange(len(counts)), counts))
-    radius = np.array([scene.species[k].diameter / 2 for k in labels])
-    mass = np.array([scene.species[k].mass for k in labels])
+    radius, mass = np.empty(n), np.empty(n)
+    for k, (d, m) in enumerate(species_disks(scene)):  # a species' disks in its drawn order
+        radius[labels == k] = d / 2
+        mass[labels == k] = m
     rmax = radius.max()
     inner, outer = wall_layout(g, "inner"), wall_layout(g, "outer")
     # clear of the wall disks (or the flat ring) of each ring

@@ -12,15 +12,19 @@ import math
 from .scene import Scene, Species
 
 
-def areal_density(s: Species) -> float:
+def areal_density(s: Species, height: float) -> float:
     """The 2D density m / (pi a^2) (kg/m^2) that a species' mass implies: the material's
-    density times the disk height, the same for every disk of one material."""
+    density times the disk height ``height`` (m), the same for every disk of one material
+    (a size distribution's disks have their masses from its density)."""
+    if s.distributed:
+        return s.density * height
     return s.mass / (math.pi * (s.diameter / 2) ** 2)
 
 
-def _species_text(s: Species) -> str:
-    return (f"{s.name!r} (mass {s.mass:.4g} kg, diameter {s.diameter * 1e3:.4g} mm: "
-            f"{areal_density(s):.4g} kg/m^2)")
+def _species_text(s: Species, height: float) -> str:
+    size = (f"mass {s.mass:.4g} kg, diameter {s.diameter * 1e3:.4g} mm" if not s.distributed
+            else f"density {s.density:.4g} kg/m^3, {s.diameter_distribution} diameters")
+    return f"{s.name!r} ({size}: {areal_density(s, height):.4g} kg/m^2)"
 
 
 def density_warning(scene: Scene) -> str | None:
@@ -32,15 +36,19 @@ def density_warning(scene: Scene) -> str | None:
     present = [s for s in scene.species if s.count]
     if limit is False or len(present) < 2:
         return None
-    lo = min(present, key=areal_density)
-    hi = max(present, key=areal_density)
-    ratio = areal_density(hi) / areal_density(lo)
+    h = scene.contact.height
+
+    def rho(s: Species) -> float:
+        return areal_density(s, h)
+
+    lo, hi = min(present, key=rho), max(present, key=rho)
+    ratio = rho(hi) / rho(lo)
     if ratio <= limit:
         return None
     others = [s for s in present if s is not lo and s is not hi]
-    rest = ("; the others: " + ", ".join(_species_text(s) for s in others)) if others else ""
+    rest = ("; the others: " + ", ".join(_species_text(s, h) for s in others)) if others else ""
     return (f"[[species]] masses imply 2D densities m / (pi a^2) {ratio:.3g} x apart: "
-            f"{_species_text(hi)} against {_species_text(lo)}{rest}. Disks of one material "
+            f"{_species_text(hi, h)} against {_species_text(lo, h)}{rest}. Disks of one material "
             "share one density (m = rho pi a^2 h): is a mass off by a factor (g for kg, a "
             "radius for a diameter)? Contact times, the time step and the flow follow the "
             f"masses as given. ([warnings] mass_ratio = {limit:g} sets how far apart they may "

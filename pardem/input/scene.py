@@ -20,6 +20,7 @@ import numpy as np
 from ..contact.keys import foreign_keys
 from ..contact.normal import LAWS
 from .errors import SceneError  # noqa: F401  (importers of the scene types read it here)
+from .species import SHAPE_KEYS, Species, all_disks
 from .values import Columns, key
 from .warnings_table import WarningsCfg
 
@@ -72,22 +73,6 @@ class Geometry:
     inner_flat_surface: bool = key(True)
     outer_flat_surface: bool = key(True)
     volume_fraction: float | None = key(None, "", ">0")
-
-
-@dataclass(frozen=True)
-class Species:
-    """``[[species]]`` (couette only): name (unique), diameter (m), mass (kg) or density
-    (kg/m^3 of the disks' material: mass = density pi (d/2)^2 h, h the [contact] height),
-    count (>= 0); or, with ``[geometry] volume_fraction``, ``share`` (> 0, the species' part
-    of the disks by number, in any unit: 2545 and 394 as well as 0.866 and 0.134) instead of
-    ``count``."""
-
-    name: str = key()
-    diameter: float = key(unit="m", rule=">0")
-    mass: float | None = key(None, unit="kg", rule=">0")
-    density: float | None = key(None, unit="kg/m^3", rule=">0")
-    count: int | None = key(None, rule=">=0")
-    share: float | None = key(None, rule=">0")
 
 
 _PUNITS = {"x": "m", "y": "m", "vx": "m/s", "vy": "m/s", "omega": "rad/s", "diameter": "m",
@@ -282,7 +267,7 @@ class Scene:
         """Smallest free-particle diameter (m); species with count 0 do not count."""
         if self.particles is not None:
             return float(self.particles.diameter.min())
-        return min(s.diameter for s in self.species if s.count > 0)
+        return float(all_disks(self)[0].min())
 
     def to_dict(self) -> dict[str, Any]:
         """Plain nested dict in the TOML layout, every default filled in."""
@@ -290,9 +275,7 @@ class Scene:
         if self.geometry is not None:
             d["geometry"] = {k: "auto" if v is None else v
                              for k, v in dataclasses.asdict(self.geometry).items()}
-            d["species"] = [{k: v for k, v in dataclasses.asdict(s).items()  # resolved counts
-                             if k != "share" and k != ("mass" if s.density else "density")}
-                            for s in self.species]
+            d["species"] = [_species_row(s) for s in self.species]
         if self.particles is not None:  # species only when given (older scenes' fingerprints)
             names = [k for k in _PCOLS if k != "species" or self.particles.species.any()]
             cols = [getattr(self.particles, k).tolist() for k in names]
@@ -337,6 +320,15 @@ class Scene:
         for table in ("output", "averaging", "warnings"):
             d.pop(table, None)
         return d
+
+
+def _species_row(s: Species) -> dict[str, Any]:
+    """A resolved species as its table: the count, not the share; the mass or the density as
+    given; a distribution's keys only if it has one (so older scenes' fingerprints hold)."""
+    given = "mass" if s.mass is not None and s.density is None else "density"
+    return {k: v for k, v in dataclasses.asdict(s).items() if v is not None and k != "share"
+            and k in (given, "name", "count") + (("diameter_distribution",) + SHAPE_KEYS
+                                                 if s.distributed else ("diameter",))}
 
 
 _LATER = {("time", "integrator"): "verlet",

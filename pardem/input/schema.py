@@ -20,6 +20,7 @@ from .particles import check_particles, particles_from_file, particles_from_tabl
 from ..boundaries.wall_file import wall_disks_of
 from .scene import (AveragingCfg, Contact, Effects, Geometry, Neighbors, OutputCfg, Scene,
                     SceneError, SceneInfo, Species, TimeCfg)
+from .species import check_species, disks_of, free_area
 from .values import AUTO, BOOL, FLOAT, INT, INT_AUTO, OFF, REQ, STR, fail, rule_ok, show, value
 from .warnings_table import WarningsCfg
 
@@ -123,7 +124,8 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
         species = _species(_table_list(d["species"], "species"), c["height"])
         g = _parse(d.get("geometry", {}), "geometry", "[geometry]")
         _check_counts(species, g["volume_fraction"] is not None)
-        species, geometry = _counts(species, _geometry(g, species))
+        species, geometry = _counts(species, _geometry(g, species), info["seed"], c["height"])
+        _fit(species, geometry, info["seed"], c["height"])
         gap = geometry.outer_radius - geometry.inner_radius
         if averaging is not None and averaging.ring_width is not None:
             why = ring_width_problem(averaging.ring_width, gap)
@@ -160,7 +162,7 @@ def scene_from_dict(d: dict[str, Any], base_dir: str | Path = ".",
 def _species(rows: list[Any], height: float) -> tuple[Species, ...]:
     """The [[species]] tables, each with its mass (from its density and the disks' height
     ``height`` if given so)."""
-    out = tuple(_mass(Species(**_parse(r, "species", f"[[species]] #{i}")), i, height)
+    out = tuple(check_species(Species(**_parse(r, "species", f"[[species]] #{i}")), i, height)
                 for i, r in enumerate(rows))
     seen: set[str] = set()
     for i, s in enumerate(out):
@@ -168,18 +170,6 @@ def _species(rows: list[Any], height: float) -> tuple[Species, ...]:
             raise fail(f"[[species]] #{i}", "name", s.name, "duplicate species name")
         seen.add(s.name)
     return out
-
-
-def _mass(s: Species, i: int, height: float) -> Species:
-    if s.mass is not None and s.density is not None:
-        raise fail(f"[[species]] #{i}", "density", s.density, "mass is given too; give one of "
-                   "them (mass = density pi (d/2)^2 h, h the [contact] height)", "kg/m^3")
-    if s.mass is None and s.density is None:
-        raise SceneError(f"[[species]] #{i} mass: missing (give mass in kg, or density in "
-                         "kg/m^3 of the disks' material)")
-    if s.mass is not None:
-        return s
-    return dataclasses.replace(s, mass=s.density * math.pi * (s.diameter / 2) ** 2 * height)
 
 
 def _check_counts(species: tuple[Species, ...], filling: bool) -> None:
@@ -229,14 +219,16 @@ def densest_packing(species: tuple[Species, ...]) -> tuple[float, str]:
     """The fraction no cell of these disks can be compressed beyond, and what it is: the
     hexagonal packing for one diameter; for several, only the cell's whole area (small disks
     can fill the holes between large ones)."""
-    if len({s.diameter for s in species}) == 1:
+    if len({s.diameter for s in species}) == 1 and not species[0].distributed:
         return HEXAGONAL_PACKING, "the densest packing of equal disks"
     return 1.0, "the whole cell"
 
 
-def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, ...], Geometry]:
+def _counts(species: tuple[Species, ...], g: Geometry, seed: int,
+            height: float) -> tuple[tuple[Species, ...], Geometry]:
     """Every species' count: given, or from [geometry] volume_fraction and the shares (the
-    resolved scene keeps the counts and drops the fraction and shares)."""
+    resolved scene keeps the counts and drops the fraction and shares; a distribution
+    counts with its mean disk area)."""
     from ..boundaries.walls import wall_area_share
 
     area = math.pi * (g.outer_radius**2 - g.inner_radius**2)
@@ -249,7 +241,8 @@ def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, .
         # shares are relative: divide by the largest first (1e308 + 1e308 overflows)
         top = max(s.share for s in species)
         total = sum(s.share / top for s in species)
-        per_disk = sum(s.share / top / total * math.pi * s.diameter**2 / 4 for s in species)
+        per_disk = sum(s.share / top / total * math.pi * s.diameter**2 / 4 if not s.distributed
+                       else s.share / top / total * s.mean_area() for s in species)
         n = (g.volume_fraction * area - walls) / per_disk
         if n < 1:
             raise fail("[geometry]", "volume_fraction", g.volume_fraction,
@@ -260,7 +253,7 @@ def _counts(species: tuple[Species, ...], g: Geometry) -> tuple[tuple[Species, .
     if sum(s.count for s in species) < 1:
         raise SceneError("[[species]] count: total count must be >= 1")
     # the free disks alone: wall disks may overlap, so their share bounds nothing here
-    nu = sum(s.count * math.pi * s.diameter**2 / 4 for s in species) / area
+    nu = free_area(species, seed, height) / area
     if nu > densest:
         raise SceneError(
             f"[[species]] count: {sum(s.count for s in species)} disks fill {nu:.4f} of the "
@@ -277,21 +270,34 @@ def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
     if g["outer_start_radius"] < ro:
         raise fail("[geometry]", "outer_start_radius", g["outer_start_radius"],
                     f"outer start radius below the final radius outer_radius = {ro!r}", "m")
-    big = max(species, key=lambda s: s.diameter)
-    if not ro - ri > big.diameter:
-        raise SceneError(f"[geometry] outer_radius - inner_radius = {ro - ri:.6g} m: the annulus "
-                         f"gap must be larger than the largest diameter {big.diameter!r} m "
-                         f"([[species]] {big.name!r})")
-    geometry = Geometry(**g)
+    # the largest a disk can be before the counts give the drawn ones (_fit)
+    _across(ro - ri, [(s.diameter_max if s.distributed else s.diameter, s, "largest diameter")
+                      for s in species])
+    return Geometry(**g)
+
+
+def _across(gap: float, disks: list[tuple[float | None, Species, str]]) -> None:
+    """The largest of ``disks`` (diameter m or None: not known, its species, what it is) fits
+    across the annulus gap."""
+    d, s, what = max((x for x in disks if x[0] is not None), key=lambda x: x[0],
+                     default=(None, None, ""))
+    if d is not None and not gap > d:
+        raise SceneError(f"[geometry] outer_radius - inner_radius = {gap:.6g} m: the annulus "
+                         f"gap must be larger than the {what} {d!r} m ([[species]] {s.name!r})")
+
+
+def _fit(species: tuple[Species, ...], g: Geometry, seed: int, height: float) -> None:
+    """The disks (a distribution's as drawn) fit the cell: the largest across the gap, the
+    smallest held in by each ring's wall disks."""
     from ..boundaries.walls import check_layout  # walls builds on scene types; imported here, not at the top
 
-    small = min((s.diameter for s in species if (s.count or 0) > 0 or s.share), default=None)
-    if small is None:
-        raise SceneError("[[species]] count: total count must be >= 1")
+    drawn = [(s, disks_of(s, i, seed, height)[0]) for i, s in enumerate(species)]
+    drawn = [(s, d) for s, d in drawn if d.size]
+    _across(g.outer_radius - g.inner_radius,
+            [(float(d.max()), s, "largest drawn diameter") for s, d in drawn])
+    small = min(float(d.min()) for _, d in drawn)
     for ring in ("inner", "outer"):
-        why = check_layout(geometry, ring, small)
+        why = check_layout(g, ring, small)
         if why is not None:
             key, value, text = why
             raise fail("[geometry]", key, value, text)
-    return geometry
-
