@@ -15,7 +15,7 @@ from ..contact.damped_spring import contact_gamma, restitution_beta
 from ..contact.normal import law_of
 from ..contact.pairs import harmonic, own_contacts, pair_contacts, species_count
 from ..input.scene import Scene, SceneError
-from ..input.species import all_disks, species_disks
+from ..input.species import all_disks, representative_disks, species_disks
 
 
 def contact_time(k_n: float, gamma_n: float, m_red: float) -> float:
@@ -101,7 +101,7 @@ def pair_reduced_mass(scene: Scene, p: int, q: int) -> float | None:
         lightest = [_two_lightest(m[s == k]) if k < species_count(scene) else None
                     for k in (p, q)]
     else:
-        lightest = [_two_lightest(species_disks(scene)[k][1]) if k < len(scene.species)
+        lightest = [_two_lightest(representative_disks(scene)[k][1]) if k < len(scene.species)
                     else None for k in (p, q)]
     a, b = lightest
     if a is None:  # two rings never touch

@@ -147,9 +147,18 @@ def species_disks(scene) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
                  for i, s in enumerate(scene.species))
 
 
+def representative_disks(scene) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
+    """species_disks as far as the scales need them: a drawn species' every disk, a fixed
+    species' first two (they are all alike), so that the checks of a scene of 10^9 disks run
+    before anything of its size is allocated (core/memory.py refuses it first)."""
+    return tuple((d, m) if s.distributed else (d[:2], m[:2])
+                 for s, (d, m) in zip(scene.species, species_disks(scene)))
+
+
 def all_disks(scene) -> tuple[np.ndarray, np.ndarray]:
-    """(diameters, masses) of every free disk of a couette scene, species after species."""
-    parts = species_disks(scene)
+    """(diameters, masses) of the free disks of a couette scene that bound its scales (the
+    smallest diameter, the two lightest disks), species after species: representative_disks."""
+    parts = representative_disks(scene)
     return (np.concatenate([d for d, _ in parts]), np.concatenate([m for _, m in parts]))
 
 
@@ -163,8 +172,8 @@ def free_area(species: tuple[Species, ...], seed: int, height: float) -> float:
 @lru_cache(maxsize=32)
 def disks_of(s: Species, index: int, seed: int, height: float) -> tuple[np.ndarray, np.ndarray]:
     n = s.count or 0
-    if not s.distributed:
-        d, m = np.full(n, s.diameter), np.full(n, s.mass)
+    if not s.distributed:  # views of one value: no memory however many disks
+        d, m = (np.broadcast_to(np.float64(x), (n,)) for x in (s.diameter, s.mass))
     else:
         d = draw_diameters(s, n, np.random.default_rng(np.random.SeedSequence(
             seed, spawn_key=(index,))))
