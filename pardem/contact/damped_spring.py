@@ -34,8 +34,17 @@ def restitution_beta(e: float) -> float:
     """beta = 2L/sqrt(pi^2 + L^2), L = -ln e: the damped linear spring with gamma_n =
     beta sqrt(k_n m_red) rebounds with restitution e whatever m_red (e = exp(-pi eta/omega)
     solved for eta = gamma_n/(2 m_red), omega^2 = k_n/m_red - eta^2)."""
-    big_l = -math.log(e)
+    return decrement_beta(-math.log(e))
+
+
+def decrement_beta(big_l: float) -> float:
+    """restitution_beta of the logarithmic decrement L = -ln e."""
     return 2.0 * big_l / math.sqrt(math.pi ** 2 + big_l ** 2)
+
+
+def beta_decrement(beta: float) -> float:
+    """L = -ln e of a beta (the inverse of decrement_beta): pi beta/sqrt(4 - beta^2)."""
+    return math.pi * beta / math.sqrt(4.0 - beta * beta)
 
 
 def contact_gamma(contact, k_n: float, m_red: float) -> float:

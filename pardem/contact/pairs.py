@@ -44,6 +44,7 @@ import numba as nb
 import numpy as np
 
 from ..core.jit import INLINE
+from .damped_spring import beta_decrement, decrement_beta
 from .model import LAW_COLUMNS, LawParams, law_params
 
 
@@ -59,11 +60,10 @@ def geometric(a: float, b: float) -> float:
 
 def restitutions(a: float, b: float) -> float:
     """The beta_n (damped_spring.restitution_beta) of the restitution sqrt(e_a e_b) of two
-    contacts' beta_n: their -ln e = pi beta/sqrt(4 - beta^2) averaged."""
+    contacts' beta_n: the mean of their decrements -ln e."""
     if a == b:
         return a
-    big_l = 0.5 * sum(np.pi * x / np.sqrt(4.0 - x * x) for x in (a, b))
-    return float(2.0 * big_l / np.sqrt(np.pi ** 2 + big_l ** 2))
+    return decrement_beta(0.5 * (beta_decrement(a) + beta_decrement(b)))
 
 
 MIXING = {"k_n": harmonic, "gamma_n": harmonic, "k_t": harmonic, "mu": geometric,

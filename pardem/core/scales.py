@@ -65,17 +65,12 @@ def smallest_contact_time(scene: Scene) -> float:
     switches normal damping on (a restitution gives each pair's gamma_n from its m_red)."""
     damped = scene.effects.normal_damping
 
-    def time(c, k, m_red):  # c: a [contact] table, or a pair of own tables to mix
-        if not damped:
-            return contact_time(k, 0.0, m_red)
-        if isinstance(c, tuple) and c[0].restitution is None:
-            return contact_time(k, harmonic(c[0].gamma_n, c[1].gamma_n), m_red)
-        if isinstance(c, tuple):
-            e = math.sqrt(c[0].restitution * c[1].restitution)
-            return contact_time(k, restitution_beta(e) * math.sqrt(k * m_red), m_red)
-        return contact_time(k, contact_gamma(c, k, m_red), m_red)
+    def time(k, gamma, m_red):
+        return contact_time(k, gamma if damped else 0.0, m_red)
 
-    t_c = time(scene.contact, normal_stiffness(scene)[1], smallest_reduced_mass(scene))
+    k = normal_stiffness(scene)[1]
+    m_red = smallest_reduced_mass(scene)
+    t_c = time(k, contact_gamma(scene.contact, k, m_red), m_red)
     if not scene.pairs:
         return t_c
     given, own = dict(pair_contacts(scene)), own_contacts(scene)
@@ -85,12 +80,22 @@ def smallest_contact_time(scene: Scene) -> float:
             if m_red is None:
                 continue
             if (p, q) in given:
-                t_c = min(t_c, time(given[p, q], normal_stiffness(scene, given[p, q])[1], m_red))
+                k = normal_stiffness(scene, given[p, q])[1]
+                gamma = contact_gamma(given[p, q], k, m_red)
             else:  # the mixed law's stiffness at the reference overlap mixes alike
                 k = harmonic(normal_stiffness(scene, own[p])[1],
                              normal_stiffness(scene, own[q])[1])
-                t_c = min(t_c, time((own[p], own[q]), k, m_red))
+                gamma = mixed_gamma(own[p], own[q], k, m_red)
+            t_c = min(t_c, time(k, gamma, m_red))
     return t_c
+
+
+def mixed_gamma(a, b, k: float, m_red: float) -> float:
+    """gamma_n (kg/s) of the mix of two own [contact] tables (contact/pairs.py's rule) for a
+    contact of stiffness k and reduced mass m_red."""
+    if a.restitution is None:
+        return harmonic(a.gamma_n, b.gamma_n)
+    return restitution_beta(math.sqrt(a.restitution * b.restitution)) * math.sqrt(k * m_red)
 
 
 def pair_reduced_mass(scene: Scene, p: int, q: int) -> float | None:
