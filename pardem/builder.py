@@ -68,8 +68,7 @@ class SimulationBuilder:
         self.dt = float(self.step_length)
         e, g = scene.effects, scene.geometry
         self.contact = options_for(e, scene.time.integrator, tracks_eta(scene, out_dir is not None),
-                                   scene.contact.normal, bool(scene.pairs),
-                                   scene.contact.restitution is not None)
+                                   scene.contact, bool(scene.pairs))
         self.history_columns = history_columns(self.contact)
         self.hist = len(self.history_columns)
         self.options = StepOptions(self.contact, e.rotation, e.bottom_friction,

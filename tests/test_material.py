@@ -9,6 +9,8 @@ import numpy as np
 import pytest
 from helpers import D_SMALL, K_N, M_SMALL, collisions, couette_scene, free_scene, head_on, wall_setup
 
+from pardem.contact.pairs import pair_table
+from pardem.contact.params import LAW_COLUMNS
 from pardem.input.scene import SceneError
 from pardem.input.scene_file import load_scene, write_scene
 from pardem.simulation import Simulation
@@ -83,6 +85,18 @@ BAD = [
      {}, 'restitution = 0.8: is defined for normal = "linear"'),
     ({"pair": [{"species": ["small", "large"], "restitution": 0.5}]}, {},
      "[[contact.pair]] #0 'small'-'large' restitution = 0.5: needs [contact] restitution"),
+    ({"tangential_restitution": 0.5}, {},
+     "tangential_restitution = 0.5: is set but [effects] tangential_damping is off"),
+    ({"tangential_restitution": 0.5, "gamma_t": 0.1}, {"tangential_damping": True},
+     "tangential_restitution = 0.5: gamma_t is given too"),
+    ({"tangential_restitution": 0.5}, {"tangential_damping": True, "rotation": False},
+     "tangential_restitution = 0.5: assumes turning disks"),
+    ({"tangential_restitution": 0.5, "normal": "hertz", "youngs_modulus": 1e7,
+      "poisson_ratio": 0.3}, {"tangential_damping": True},
+     'tangential_restitution = 0.5: needs a constant k_t; normal = "hertz"'),
+    ({"pair": [{"species": ["small", "large"], "tangential_restitution": 0.5}],
+      "gamma_t": 0.1}, {"tangential_damping": True},
+     "'small'-'large' tangential_restitution = 0.5: needs [contact] tangential_restitution"),
 ]
 
 
@@ -91,8 +105,9 @@ def test_a_restitution_where_it_has_no_meaning_is_refused(contact, effects, mess
     if "normal" in contact:  # a Hertz scene gives no k_n
         with pytest.raises(SceneError) as e:
             d = couette_scene(counts=(20, 5)).to_dict()
-            d["contact"] = {k: v for k, v in d["contact"].items() if k not in ("k_n", "k_t", "gamma_n")}
+            d["contact"] = {k: v for k, v in d["contact"].items() if k not in ("k_n", "k_t", "gamma_n", "gamma_t")}
             d["contact"].update(contact)
+            d["effects"].update(effects)
             from pardem.input.schema import scene_from_dict
 
             scene_from_dict(d)
@@ -132,3 +147,86 @@ def test_mass_and_density_one_of_them(row, message):
     with pytest.raises(SceneError) as e:
         scene_from_dict(d)
     assert message in str(e.value)
+
+
+def tangential_speeds(sim, i: int, j: int) -> float:
+    """The tangential speed (m/s) of the contact point of i on j: (v_i - v_j) . t -
+    (a_i w_i + a_j w_j), t = z x n, n the unit vector from j to i."""
+    g = sim.gathered("position", "velocity", "omega", "radius")
+    x, v, w, a = g["position"], g["velocity"], g["omega"], g["radius"]
+    n = (x[i] - x[j]) / np.hypot(*(x[i] - x[j]))
+    return float((v[i] - v[j]) @ np.array([-n[1], n[0]]) - (a[i] * w[i] + a[j] * w[j]))
+
+
+def extreme_ratios(series: list[float]) -> list[float]:
+    """Ratios of successive extreme magnitudes of a sampled damped oscillation, each extreme
+    placed by the parabola through its sample and the two beside it."""
+    s, peaks = np.asarray(series), []
+    for k in range(1, len(s) - 1):
+        if abs(s[k]) >= abs(s[k - 1]) and abs(s[k]) > abs(s[k + 1]):
+            y0, y1, y2 = abs(s[k - 1]), abs(s[k]), abs(s[k + 1])
+            peaks.append(y1 + (y2 - y0) ** 2 / (8 * (2 * y1 - y0 - y2)))
+    return [b / a for a, b in zip(peaks, peaks[1:])]
+
+
+def damped_ratio(zeta: float) -> float:
+    """The ratio of successive extremes of a damped oscillator's speed (its restitution)."""
+    return math.exp(-math.pi * zeta / math.sqrt(1 - zeta ** 2))
+
+
+@pytest.mark.parametrize("integrator, e_t", [("verlet-halfstep", 0.5),
+                                             ("verlet-halfstep", 0.8), ("verlet", 0.5)])
+def test_a_sticking_contact_oscillates_with_the_given_tangential_restitution(integrator, e_t):
+    """Two disks pressed together (overlap 0.7 % of d, at rest normally) with a small
+    tangential contact-point speed: the contact sticks (mu |f_n| far above k_t xi) and the
+    contact point oscillates, damped. The speed's successive extremes fall by e_t each half
+    period, for a pair of masses (m, m) and one of (m, 4m): a sticking contact of two turning
+    disks has the mass m_red/3 whatever the masses (1/m_i + 1/m_j + a_i^2/I_i + a_j^2/I_j, I =
+    m a^2/2). k_t = 100 k_n makes the oscillation ~17 times faster than the normal one, so the
+    first extremes come while f_n is near its peak.
+    The half-step integrator increments the spring with the velocity that moves the disks: it
+    gives e_t. The default one increments it with the velocity predicted at the step's end,
+    half a step ahead, which adds the damping k_t dt/2 (docs/design.md): zeta + omega_t dt/4."""
+    rows = []
+    for y, m_j in ((0.0, M_SMALL), (0.05, 4 * M_SMALL)):
+        for side, m, vy in ((-1, M_SMALL, 0.005), (1, m_j, -0.005)):
+            rows.append({"x": side * (D_SMALL - 5e-5) / 2, "y": y, "vy": vy,
+                         "diameter": D_SMALL, "mass": m})
+    k_t, dt = 100 * K_N, 5e-6
+    sim = Simulation(free_scene(
+        rows, effects={"tangential_friction": True, "tangential_damping": True, "rotation": True},
+        contact={"gamma_n": None, "k_t": k_t, "mu": 2.0, "tangential_restitution": e_t},
+        time={"dt": dt, "integrator": integrator}))
+    speeds = {(0, 1): [], (2, 3): []}
+    for _ in range(300):
+        sim.advance_steps(1)
+        for pair, s in speeds.items():
+            s.append(tangential_speeds(sim, *pair))
+    zeta = -math.log(e_t) / math.hypot(math.pi, math.log(e_t))
+    for m_j, s in zip((M_SMALL, 4 * M_SMALL), speeds.values()):
+        m_red = M_SMALL * m_j / (M_SMALL + m_j)
+        omega_t = math.sqrt(3 * k_t / m_red)
+        expected = e_t if integrator == "verlet-halfstep" else damped_ratio(zeta + omega_t * dt / 4)
+        ratios = extreme_ratios(s)[:4]
+        assert len(ratios) == 4
+        assert ratios == pytest.approx([expected] * 4, rel=1e-2)
+
+
+def test_a_mixed_pair_gets_the_geometric_mean_of_the_tangential_restitutions():
+    """[contact] e_t 0.9, species 2's own law 0.4, no 0-2 table: the 0-2 contacts damp as
+    e_t = sqrt(0.9 * 0.4) = 0.6, i.e. the table's gamma_t column holds beta(0.6) =
+    2L/sqrt(pi^2 + L^2), L = -ln 0.6 (damping.py), and species 0's own contacts beta(0.9)."""
+    rows = (head_on(0.0, (0, 0), (M_SMALL, M_SMALL)) + head_on(0.05, (2, 2), (M_SMALL, M_SMALL)))
+    scene = free_scene(rows, effects={"tangential_friction": True, "tangential_damping": True,
+                                      "rotation": True},
+                       contact={"tangential_restitution": 0.9,
+                                "pair": [{"species": [2, 2], "tangential_restitution": 0.4}]})
+    table = pair_table(scene, 1e-5)
+    column = LAW_COLUMNS.index("gamma_t")
+
+    def beta(e):
+        return 2 * -math.log(e) / math.hypot(math.pi, math.log(e))
+
+    assert table[0, 2, column] == pytest.approx(beta(0.6), rel=1e-12)
+    assert table[0, 0, column] == pytest.approx(beta(0.9), rel=1e-12)
+    assert table[2, 2, column] == pytest.approx(beta(0.4), rel=1e-12)

@@ -11,7 +11,7 @@ import pytest
 from helpers import (GAMMA_N, K_N, M_SMALL, analytic_collision, collisions, couette_scene,
                      free_scene, head_on, wall_setup)
 
-from pardem.contact.model import LAW_COLUMNS
+from pardem.contact.params import LAW_COLUMNS
 from pardem.contact.pairs import pair_table
 from pardem.input.scene import SceneError
 from pardem.input.schema import scene_from_dict

@@ -7,7 +7,8 @@ from __future__ import annotations
 
 import numba as nb
 
-from ..contact.model import history_width, surface_contact, with_damping
+from ..contact.damping import with_damping
+from ..contact.model import history_width, surface_contact
 from ..contact.overlap import MAX_OVERLAP
 from ..contact.overlap import note_deep
 from ..contact.pairs import pair_law, ring_partner

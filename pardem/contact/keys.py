@@ -27,9 +27,15 @@ PARAMETER_UNITS = {"gamma_t": "kg/s", "k_r": "N/m", "mu_r": ""}
 def check_slots(c: dict, e: dict) -> None:
     """SceneError unless every switched-on slot has its parameters ([contact] c and [effects]
     e as dicts), and no slot's parameter is set while the slot is off."""
-    if c.get("restitution") is not None and not e["normal_damping"]:
-        raise fail("[contact]", "restitution", c["restitution"], "is set but [effects] "
-                   "normal_damping is off; switch it on or remove restitution")
+    for name, switch in (("restitution", "normal_damping"),
+                         ("tangential_restitution", "tangential_damping")):
+        if c.get(name) is not None and not e[switch]:
+            raise fail("[contact]", name, c[name], f"is set but [effects] {switch} is off; "
+                       f"switch it on or remove {name}")
+    if c.get("tangential_restitution") is not None and not e["rotation"]:
+        raise fail("[contact]", "tangential_restitution", c["tangential_restitution"],
+                   "assumes turning disks (a sticking contact's mass is m_red/3: "
+                   "contact/damping.py); [effects] rotation is off: give gamma_t")
     if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
         raise fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
                    "tangential_friction is on and mu > 0", "N/m")
@@ -38,7 +44,8 @@ def check_slots(c: dict, e: dict) -> None:
             if not e[needs]:
                 raise fail("[effects]", switch, True, f"needs [effects] {needs} = true ({why})")
             for name in positive:
-                if not c[name] > 0:
+                if not c[name] > 0 and not (name == "gamma_t"
+                                            and c.get("tangential_restitution") is not None):
                     raise fail("[contact]", name, c[name], f"must be > 0 when [effects] "
                                f"{switch} is on", PARAMETER_UNITS[name])
             continue
@@ -76,6 +83,8 @@ def check_law(c: dict, given) -> None:
         law.check(c)
     if c.get("restitution") is not None:
         _check_restitution(c, given, law)
+    if c.get("tangential_restitution") is not None:
+        _check_tangential_restitution(c, given, law)
 
 
 def _check_restitution(c: dict, given, law) -> None:
@@ -88,3 +97,14 @@ def _check_restitution(c: dict, given, law) -> None:
         laws = ", ".join(f'"{x.name}"' for x in LAWS.values() if x.restitution)
         raise fail("[contact]", "restitution", c["restitution"], f'is defined for normal = '
                    f'{laws}; give gamma_n with normal = "{law.name}"')
+
+
+def _check_tangential_restitution(c: dict, given, law) -> None:
+    """e_t replaces gamma_t and needs a constant k_t (and turning disks: check_slots)."""
+    e_t = c["tangential_restitution"]
+    if "gamma_t" in given:
+        raise fail("[contact]", "tangential_restitution", e_t, "gamma_t is given too; give one "
+                   "of them (e_t sets each contact's gamma_t from its masses)")
+    if law.tangential:
+        raise fail("[contact]", "tangential_restitution", e_t, f'needs a constant k_t; normal = '
+                   f'"{law.name}" scales it with the contact radius: give gamma_t')

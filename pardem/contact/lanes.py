@@ -5,9 +5,9 @@ Stage: force kernels (inlined into forces.py's loops). Laying a batch out by row
 input of 64 pairs in one cache line run, so that the law's loop over lanes vectorises. With
 parameters per pair of species (``ContactOptions.pairs``) the gather also copies each pair's
 law into rows of its own (``gather_law``), which the law reads at unit stride like its other
-inputs (``lane_law``); without, those rows do not exist. With the damping given as a
-restitution (``ContactOptions.restitution``) it also copies both particles' inverse masses
-(``gather_masses``), from which ``lane_law`` sets the pair's gamma_n.
+inputs (``lane_law``); without, those rows do not exist. With dampings given as restitutions
+(damping.py) it also copies both particles' inverse masses (``gather_masses``), from which
+``lane_law`` sets the pair's dampings.
 """
 
 from __future__ import annotations
@@ -15,14 +15,17 @@ from __future__ import annotations
 import numba as nb
 
 from ..core.jit import INLINE
-from .model import LAW_COLUMNS, LawParams, with_damping, eta_column, history_width, pair_eta, pair_force, rolling_column, spring_column
+from .damping import per_contact, with_damping
+from .model import eta_column, history_width, pair_eta, pair_force, rolling_column, spring_column
 from .normal import normal_width
+from .params import LAW_COLUMNS, LawParams
 
 
 BATCH = 64  # pairs per batch of the force loop: its work rows stay in L1
 # Rows of the work array (each BATCH lanes): the inputs gathered per pair, the outputs, then
 # the history: W_HIST + c in, W_HIST + width + c out; then, with pair laws, LAW_COLUMNS rows
-# from law_row; then, with a restitution, two rows of inverse masses from mass_row.
+# from law_row; then, with dampings given as restitutions, two rows of inverse masses from
+# mass_row.
 (W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_ACT, W_FX, W_FY, W_TI, W_TJ, W_FN, W_FTX,
  W_FTY, W_HIST) = range(17)
 
@@ -35,14 +38,14 @@ def law_row(o):
 
 @nb.njit(**INLINE)
 def mass_row(o):
-    """The row of a lane's 1/m_i (then 1/m_j), with ``o.restitution``."""
+    """The row of a lane's 1/m_i (then 1/m_j), with ``damping.per_contact(o)``."""
     return law_row(o) + (len(LAW_COLUMNS) if o.pairs else 0)
 
 
 @nb.njit(**INLINE)
 def work_size(o):
     """The force loop's work rows, then two elements for forces.contact_forces' choice."""
-    return (mass_row(o) + (2 if o.restitution else 0)) * BATCH + 2
+    return (mass_row(o) + (2 if per_contact(o) else 0)) * BATCH + 2
 
 
 @nb.njit(**INLINE)
@@ -64,17 +67,16 @@ def gather_law(work, lane, table, p, q, o):
 @nb.njit(**INLINE)
 def lane_law(work, lane, law, o):
     """The LawParams of lane's pair: its law rows with ``law``'s dt (or ``law`` itself without
-    pair laws), with the gamma_n of its reduced mass when the damping is a restitution."""
+    pair laws), with the dampings of its reduced mass where they are given as restitutions."""
     if o.pairs:
         ll_r = law_row(o) * BATCH + lane
         ll_law = LawParams(law.dt, work[ll_r], work[ll_r + BATCH], work[ll_r + 2 * BATCH],
                            work[ll_r + 3 * BATCH], work[ll_r + 4 * BATCH],
                            work[ll_r + 5 * BATCH], work[ll_r + 6 * BATCH],
-                           work[ll_r + 7 * BATCH], work[ll_r + 8 * BATCH],
-                           work[ll_r + 9 * BATCH])
+                           work[ll_r + 7 * BATCH], work[ll_r + 8 * BATCH])
     else:
         ll_law = law
-    if not o.restitution:
+    if not per_contact(o):
         return ll_law
     ll_m = mass_row(o) * BATCH + lane
     return with_damping(ll_law, 1.0 / (work[ll_m] + work[ll_m + BATCH]), o)

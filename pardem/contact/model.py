@@ -28,8 +28,8 @@ descriptor's ``history``), the spring (2, with friction), the rolling spring (1,
 eta (2). A pair that does not touch has all
 zero; a new contact starts from zero.
 
-Adding a slot: its kernel in laws.py, its option, parameters and columns here, its keys in
-scene.py and their checks in keys.py. Adding a choice of the normal slot: normal.py.
+Adding a slot: its kernel in laws.py, its option and columns here, its parameters in
+params.py, its keys in scene.py and their checks in keys.py. Adding a choice of the normal slot: normal.py.
 """
 
 from __future__ import annotations
@@ -41,10 +41,11 @@ import numba as nb
 
 from ..core.jit import INLINE
 from ..core.static import static
-from . import damped_spring
+from .damping import damping_coefficients
 from .laws import coulomb_limit, normal_viscous, rolling_limit, spring_increment
 from .normal import (LAWS, law_of, normal_energy, normal_force, normal_width,
                      tangential_stiffness)
+from .params import LawParams
 
 
 @static
@@ -60,62 +61,32 @@ class ContactOptions:
     eta: bool = False
     normal: int = 0  # the normal law's NormalLaw.code (0: linear)
     pairs: bool = False  # parameters per pair of species (contact/pairs.py)
-    restitution: bool = False  # gamma_n per contact from [contact] restitution (with_damping)
+    restitution: bool = False  # gamma_n per contact from [contact] restitution (damping.py)
+    tangential_restitution: bool = False  # gamma_t per contact, likewise
 
 
-class LawParams(NamedTuple):
-    """Parameters of the law (SI): dt (s), k_n (N/m), gamma_n (kg/s), k_t (N/m), mu,
-    gamma_t (kg/s), k_r (N/m), mu_r, then the normal laws' further coefficients (their
-    meaning, and that of k_n and k_t, is the normal law's: normal.NormalLaw.coefficients)."""
-
-    dt: float
-    k_n: float
-    gamma_n: float
-    k_t: float
-    mu: float
-    gamma_t: float = 0.0
-    k_r: float = 0.0
-    mu_r: float = 0.0
-    k_unload: float = 0.0
-    k_adhesion: float = 0.0
-    beta_n: float = 0.0  # with ContactOptions.restitution: gamma_n = beta_n sqrt(k_n m_red)
-
-
-LAW_COLUMNS = LawParams._fields[1:]
-"""What may differ from pair to pair: every parameter but dt (contact/pairs.py)."""
-
-
-def options_for(effects, integrator: str, eta: bool, normal: str = "linear",
-                pairs: bool = False, restitution: bool = False) -> ContactOptions:
-    """The options of a scene's [effects] table, [time] integrator, [contact] normal, whether
-    it gives pair tables and whether its damping is given as a restitution."""
+def options_for(effects, integrator: str, eta: bool, contact=None,
+                pairs: bool = False) -> ContactOptions:
+    """The options of a scene's [effects] table, [time] integrator, [contact] table (its
+    normal law and whether its dampings are given as restitutions: None, the paper's) and
+    whether it gives pair tables."""
+    normal = "linear" if contact is None else contact.normal
+    e_n = contact is not None and contact.restitution is not None
+    e_t = contact is not None and contact.tangential_restitution is not None
     return ContactOptions(
         damping=effects.normal_damping, friction=effects.tangential_friction,
         clip=effects.clip_attractive_normal, window=integrator == "verlet",
         tangential_damping=effects.tangential_damping, rolling=effects.rolling_resistance,
         eta=eta, normal=LAWS[normal].code, pairs=pairs,
-        restitution=restitution and effects.normal_damping)
+        restitution=e_n and effects.normal_damping,
+        tangential_restitution=e_t and effects.tangential_damping)
 
 
 def law_params(contact, dt: float) -> LawParams:
-    """LawParams from a scene's [contact] table and the time step (s); a restitution gives
-    beta_n (and gamma_n 0: each contact's comes from its reduced mass, with_damping)."""
-    e = contact.restitution
-    return LawParams(dt, contact.k_n, contact.gamma_n if e is None else 0.0, contact.k_t,
-                     contact.mu, contact.gamma_t, contact.k_r, contact.mu_r,
-                     beta_n=0.0 if e is None else damped_spring.restitution_beta(e))._replace(
-                         **law_of(contact).coefficients(contact))
-
-
-@nb.njit(**INLINE)
-def with_damping(law, m_red, o):
-    """``law`` with the gamma_n of a contact of reduced mass m_red (kg): with a restitution
-    (o.restitution), beta_n sqrt(k_n m_red); else ``law`` itself."""
-    if not o.restitution:
-        return law
-    wd_gamma = law.beta_n * math.sqrt(law.k_n * m_red)
-    return LawParams(law.dt, law.k_n, wd_gamma, law.k_t, law.mu, law.gamma_t, law.k_r,
-                     law.mu_r, law.k_unload, law.k_adhesion, law.beta_n)
+    """LawParams from a scene's [contact] table and the time step (s)."""
+    return LawParams(dt, contact.k_n, 0.0, contact.k_t, contact.mu, 0.0, contact.k_r,
+                     contact.mu_r)._replace(**damping_coefficients(contact),
+                                            **law_of(contact).coefficients(contact))
 
 
 def history_columns(o: ContactOptions) -> tuple[str, ...]:

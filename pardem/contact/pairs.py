@@ -18,8 +18,9 @@ rule, per parameter (``MIXING``):
     friction     mu, mu_r: the geometric mean sqrt(mu_a mu_b) (LAMMPS's rule; a friction
                  coefficient belongs to the pair of surfaces, so give the pair a table where
                  it is known)
-    restitution  e_n given as [contact] restitution: the geometric mean sqrt(e_a e_b), the
-                 mean of the two logarithmic decrements (a convention, as for friction)
+    restitution  e_n, e_t given as [contact] restitution, tangential_restitution: the
+                 geometric mean sqrt(e_a e_b), the mean of the two logarithmic decrements (a
+                 convention, as for friction; damping.py)
 
 Each rule gives a pair of one species its own law exactly (mix(x, x) = x), and a scene
 without pair tables the paper's single law, bit for bit.
@@ -44,8 +45,9 @@ import numba as nb
 import numpy as np
 
 from ..core.jit import INLINE
-from .damped_spring import beta_decrement, decrement_beta
-from .model import LAW_COLUMNS, LawParams, law_params
+from .damping import mixing_rules
+from .model import law_params
+from .params import LAW_COLUMNS, LawParams
 
 
 def harmonic(a: float, b: float) -> float:
@@ -58,18 +60,11 @@ def geometric(a: float, b: float) -> float:
     return a if a == b else float(np.sqrt(a * b))
 
 
-def restitutions(a: float, b: float) -> float:
-    """The beta_n (damped_spring.restitution_beta) of the restitution sqrt(e_a e_b) of two
-    contacts' beta_n: the mean of their decrements -ln e."""
-    if a == b:
-        return a
-    return decrement_beta(0.5 * (beta_decrement(a) + beta_decrement(b)))
-
-
 MIXING = {"k_n": harmonic, "gamma_n": harmonic, "k_t": harmonic, "mu": geometric,
           "gamma_t": harmonic, "k_r": harmonic, "mu_r": geometric, "k_unload": harmonic,
-          "k_adhesion": harmonic, "beta_n": restitutions}
-"""The rule per LawParams column of a pair without a table (see above)."""
+          "k_adhesion": harmonic}
+"""The rule per LawParams column of a pair without a table (see above); a damping given as
+a restitution mixes as one (damping.mixing_rules)."""
 assert set(MIXING) == set(LAW_COLUMNS)
 
 BOUNDARIES = ("inner_ring", "outer_ring")
@@ -114,9 +109,10 @@ def contact_laws(scene) -> list:
     return [scene.contact] + [c for _, c in pair_contacts(scene)]
 
 
-def mixed(a, b) -> tuple:
-    """The mixed law (MIXING) of two own laws, each a sequence of LAW_COLUMNS values."""
-    return tuple(MIXING[k](float(x), float(y)) for k, x, y in zip(LAW_COLUMNS, a, b))
+def mixed(a, b, rules=MIXING) -> tuple:
+    """The mixed law (``rules``, MIXING by default) of two own laws, each a sequence of
+    LAW_COLUMNS values."""
+    return tuple(rules[k](float(x), float(y)) for k, x, y in zip(LAW_COLUMNS, a, b))
 
 
 def pair_table(scene, dt: float) -> np.ndarray:
@@ -126,9 +122,10 @@ def pair_table(scene, dt: float) -> np.ndarray:
     own = [law_params(c, dt)[1:] for c in own_contacts(scene)]
     n = len(own)
     table = np.empty((n, n, len(LAW_COLUMNS)))
+    rules = mixing_rules(scene.contact, MIXING)
     for p in range(n):
         for q in range(n):
-            table[p, q] = mixed(own[p], own[q])
+            table[p, q] = mixed(own[p], own[q], rules)
     for (p, q), c in pair_contacts(scene):
         table[p, q] = table[q, p] = law_params(c, dt)[1:]
     return table
@@ -142,7 +139,7 @@ def pair_law(table, p, q, law, o):
         return law
     return LawParams(law.dt, table[p, q, 0], table[p, q, 1], table[p, q, 2], table[p, q, 3],
                      table[p, q, 4], table[p, q, 5], table[p, q, 6], table[p, q, 7],
-                     table[p, q, 8], table[p, q, 9])
+                     table[p, q, 8])
 
 
 @nb.njit(**INLINE)

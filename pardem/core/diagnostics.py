@@ -14,7 +14,8 @@ import math
 import numba as nb
 import numpy as np
 
-from ..contact.model import LAW_COLUMNS, elastic_energy, history_columns
+from ..contact.model import elastic_energy, history_columns
+from ..contact.params import LAW_COLUMNS
 from ..contact.pairs import pair_law, ring_partner
 from .jit import JIT
 from ..boundaries.walls import ring_surface

@@ -22,6 +22,7 @@ import numpy as np
 from ..contact.lanes import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX, W_FTY,
                              W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, gather_law, gather_masses,
                              lane_contact, work_size)
+from ..contact.damping import per_contact
 from ..contact.model import history_width
 from ..contact.overlap import lane_overlap, note_deep, too_deep
 from .jit import INLINE, JIT
@@ -171,7 +172,7 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure, deep):
             work[W_WJ * BATCH + ln] = gw[jj] if rotation else 0.0
             if o.pairs:
                 gather_law(work, ln, prm.pair_law, ps.species[ii], ps.species[jj], o)
-            if o.restitution:
+            if per_contact(o):
                 gather_masses(work, ln, ps.inv_mass[ii], ps.inv_mass[jj], o)
             for c in range(n_hist):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
@@ -286,7 +287,7 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
             work[W_WJ * BATCH + ln] = gw[jj] if rotation else 0.0
             if o.pairs:
                 gather_law(work, ln, prm.pair_law, ps.species[ii], ps.species[jj], o)
-            if o.restitution:
+            if per_contact(o):
                 gather_masses(work, ln, ps.inv_mass[ii], ps.inv_mass[jj], o)
             for c in range(n_hist):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]

@@ -12,6 +12,7 @@ import math
 import numpy as np
 
 from ..contact.damped_spring import contact_gamma
+from ..contact.damping import tangential_gamma
 from ..contact.pairs import contact_laws
 from .scales import normal_stiffness, smallest_contact_time, smallest_reduced_mass
 from ..input.scene import Scene
@@ -102,7 +103,8 @@ def contact_modes(scene: Scene) -> list[tuple[str, float]]:
     k_n = max(k for _, k, _ in laws)  # the stiffest of each: a bound for any mix of pairs
     sticking = [(x, k) for x, _, k in laws if k > 0 and x.mu > 0]  # mu = 0: it never sticks
     friction = e.tangential_friction and bool(sticking)
-    gamma_t = max(x.gamma_t for x, _ in sticking) if friction and e.tangential_damping else 0.0
+    gamma_t = (max(tangential_gamma(x, k, m_red) for x, k in sticking)
+               if friction and e.tangential_damping else 0.0)
     gamma_n = max(contact_gamma(x, k, m_red) for x, k, _ in laws) if e.normal_damping else 0.0
     k_t = max(k for _, k in sticking) if friction else 0.0
     damp = z / 2 * (gamma_n + gamma_t) / m_red

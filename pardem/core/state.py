@@ -30,7 +30,7 @@ from numba import literal_unroll
 from .jit import JIT
 
 if TYPE_CHECKING:
-    from ..contact.model import LawParams
+    from ..contact.params import LawParams
     from ..boundaries.walls import Rings
 
 FREE, INNER_WALL, OUTER_WALL, FIXED_WALL = 0, 1, 2, 3

@@ -122,6 +122,10 @@ KEYS = {
                                 "coefficient e_n of every contact, whatever its masses (each "
                                 "pair's γ_n follows from its masses); \"auto\": from `gamma_n`",
     ("contact", "k_t"): "tangential (Cundall–Strack) spring stiffness",
+    ("contact", "tangential_restitution"): "instead of `gamma_t` (`linear` and `luding` laws, "
+                                           "turning disks): the restitution e_t of a sticking "
+                                           "contact's tangential oscillation, whatever its "
+                                           "masses (γ_t = β(e_t) √(k_t m_red/3))",
     ("contact", "mu"): "Coulomb friction coefficient: the tangential force is at most μ f_n",
     ("contact", "mu_bottom"): "friction coefficient of the disks on the cell's bottom plate",
     ("contact", "gravity"): "gravity pressing the disks on the bottom plate (bottom friction "

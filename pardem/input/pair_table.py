@@ -49,9 +49,10 @@ def check_pairs(rows: Any, c: dict, given: dict, e: dict,
         if not values:
             raise SceneError(f"{label}: no parameters; give at least one of "
                              f"{', '.join(PAIR_KEYS)}")
-        if "restitution" in values and c["restitution"] is None:
-            raise fail(label, "restitution", values["restitution"], "needs [contact] "
-                       "restitution: a scene gives its damping one way, for every pair")
+        for name in ("restitution", "tangential_restitution"):
+            if name in values and c[name] is None:
+                raise fail(label, name, values[name], f"needs [contact] {name}: a scene gives "
+                           "its damping one way, for every pair")
         merged = {**c, **values}
         try:
             check_slots(merged, e)

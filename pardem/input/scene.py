@@ -113,7 +113,8 @@ class Contact:
     """``[contact]``: normal (the normal law, contact.normal.LAWS: "linear", the paper's
     spring k_n delta, by default), k_n (N/m, 352.1), gamma_n (kg/s, 0.19) or restitution (e_n
     of every contact whatever its masses, the linear law only; "auto": from gamma_n), k_t (N/m,
-    267.1), mu (0.44), mu_bottom (2e-5), gravity (m/s^2, 9.81; bottom friction only), height
+    267.1), mu (0.44), tangential_restitution (e_t of a sticking contact, instead of
+    gamma_t), mu_bottom (2e-5), gravity (m/s^2, 9.81; bottom friction only), height
     (m, disk height h, 6e-3); the optional slots' parameters: gamma_t (kg/s, tangential
     viscous damping, 0), k_r (N/m, rolling spring, 0), mu_r (rolling resistance's
     Coulomb-type coefficient, 0), each only with its [effects] switch; then the other normal
@@ -123,6 +124,7 @@ class Contact:
     k_n: float = key(352.1, "N/m", ">0")
     gamma_n: float = key(0.19, "kg/s", ">=0")
     restitution: float | None = key(None, "", ">0 <=1")
+    tangential_restitution: float | None = key(None, "", ">0 <=1")
     k_t: float = key(267.1, "N/m", ">=0")
     mu: float = key(0.44, "", ">=0")
     mu_bottom: float = key(2e-5, "", ">=0")
@@ -282,9 +284,12 @@ class Scene:
             d["particles"] = [dict(zip(names, row)) for row in zip(*cols)]
         if self.wall_disks is not None:
             d["wall_disks"] = self.wall_disks.rows()
-        damping = "gamma_n" if self.contact.restitution is not None else "restitution"
-        d["contact"] = {k: v for k, v in dataclasses.asdict(self.contact).items()
-                        if k not in foreign_keys(self.contact.normal) and k != damping}
+        c = self.contact  # a damping is given as gamma or as a restitution, not both
+        damping = {"gamma_n" if c.restitution is not None else "restitution",
+                   "gamma_t" if c.tangential_restitution is not None
+                   else "tangential_restitution"}
+        d["contact"] = {k: v for k, v in dataclasses.asdict(c).items()
+                        if k not in foreign_keys(c.normal) and k not in damping}
         if self.pairs:
             d["contact"]["pair"] = [{"species": list(p.species), **dict(p.values)}
                                     for p in self.pairs]
