@@ -21,7 +21,8 @@ The compiled side is small records and dispatches, as for the normal law (contac
     kinematics  ``walls.place_wall_disks``: a wall disk's place, velocity and spin at time t,
                 chosen by its kind; the disks of a boundary that does not move keep what they
                 were given at set-up, with no code at all
-    surface     ``walls.ring_surface`` on the ``walls.Rings`` record: where the flat surface
+    surface     ``walls.ring_surface`` and ``surface_motion`` on the ``walls.Rings`` record:
+                where the flat surface
                 is, a disk's overlap and unit normal with it, the surface's velocity and spin
     travel      ``integrate.wall_travel``: how far the moving disks went since the last build
 

@@ -13,7 +13,7 @@ from ..contact.overlap import MAX_OVERLAP
 from ..contact.overlap import note_deep
 from ..contact.pairs import pair_law, ring_partner
 from ..core.jit import JIT
-from .walls import outer_radius, ring_surface
+from .walls import outer_radius, ring_surface, surface_motion
 
 
 @nb.njit(**JIT)
@@ -27,8 +27,8 @@ def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, deep):
     for q in range(pairs.wall_count[0]):
         i = pairs.wall[q]
         a = ps.radius[i]
-        ring, nx, ny, delta, vjx, vjy, s_j, w_j = ring_surface(ps.x[i, 0], ps.x[i, 1], a, lim,
-                                                               r_o, r_o_dot, prm.rings)
+        hit = ring_surface(ps.x[i, 0], ps.x[i, 1], a, lim, r_o, prm.rings)
+        ring, nx, ny, delta = hit
         if ring == 0:
             if has_hist:
                 ps.hist_wall[i, :] = 0.0
@@ -37,6 +37,7 @@ def ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, deep):
                 pairs.wall_ft[q, 0] = 0.0
                 pairs.wall_ft[q, 1] = 0.0
             continue
+        vjx, vjy, s_j, w_j = surface_motion(hit, r_o_dot, prm.rings)
         if delta > 2.0 * MAX_OVERLAP * a:
             note_deep(deep, float(i), delta, 2.0 * a, float(ring))
         w_i = ps.w_pred[i] if rotation else 0.0

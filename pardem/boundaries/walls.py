@@ -107,23 +107,38 @@ def place_wall_disks(ps, first, last, t, rings, settled):
         ps.v_pred[k, 1] = ps.v[k, 1]
 
 
+class SurfaceHit(NamedTuple):
+    """A disk against the flat ring surfaces (``ring_surface``): ring 0 (none), 1 (inner) or 2
+    (outer), the unit normal (nx, ny) from the surface to the disk and the overlap delta (m)."""
+
+    ring: int
+    nx: float
+    ny: float
+    delta: float
+
+
 @nb.njit(**INLINE)
-def ring_surface(rx, ry, a, lim, r_o, r_o_dot, rings):
-    """A disk of radius a at (rx, ry) against the flat ring surfaces, counted as touching
-    within ``lim`` (m): ``-> (ring, nx, ny, delta, vx, vy, s, spin)``, ring 0 (none), 1
-    (inner) or 2 (outer); the unit normal from the surface to the disk, the overlap (m), the
-    velocity (m/s) of the surface's centre line, its turning speed s = radius x spin (m/s; the
-    contact point moves at (vx, vy) + s z x n, as a disk of that radius would) and its spin
-    (rad/s). r_o, r_o_dot: outer radius and rate now (outer_radius).
-    A ring without its flat surface is never touched; a disk cannot touch both."""
+def ring_surface(rx, ry, a, lim, r_o, rings):
+    """The SurfaceHit of a disk of radius a at (rx, ry), counted as touching within ``lim``
+    (m); r_o: the outer radius now (outer_radius). A ring without its flat surface is never
+    touched; a disk cannot touch both."""
     rs_r = math.sqrt(rx * rx + ry * ry)
-    if rings.flat_in and rs_r - rings.r_in < a + lim:  # n = +e_r; turns at omega_in
-        return (1, rx / rs_r, ry / rs_r, a - (rs_r - rings.r_in), 0.0, 0.0,
-                rings.omega_in * rings.r_in, rings.omega_in)
-    if rings.flat_out and r_o - rs_r < a + lim:  # n = -e_r; moves radially at r_o_dot
-        rs_nx, rs_ny = -rx / rs_r, -ry / rs_r
-        return 2, rs_nx, rs_ny, a - (r_o - rs_r), -r_o_dot * rs_nx, -r_o_dot * rs_ny, 0.0, 0.0
-    return 0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0
+    if rings.flat_in and rs_r - rings.r_in < a + lim:  # n = +e_r
+        return SurfaceHit(1, rx / rs_r, ry / rs_r, a - (rs_r - rings.r_in))
+    if rings.flat_out and r_o - rs_r < a + lim:  # n = -e_r
+        return SurfaceHit(2, -rx / rs_r, -ry / rs_r, a - (r_o - rs_r))
+    return SurfaceHit(0, 0.0, 0.0, 0.0)
+
+
+@nb.njit(**INLINE)
+def surface_motion(hit, r_o_dot, rings):
+    """``(vx, vy, s, spin)`` of the surface a disk touches (``hit``, ring 1 or 2): the velocity
+    (m/s) of its centre line, its turning speed s = radius x spin (m/s; the contact point moves
+    at (vx, vy) + s z x n, as a disk of that radius would) and its spin (rad/s). The inner ring
+    turns at omega_in; the outer one moves radially at r_o_dot (outer_radius)."""
+    if hit.ring == 1:
+        return 0.0, 0.0, rings.omega_in * rings.r_in, rings.omega_in
+    return -r_o_dot * hit.nx, -r_o_dot * hit.ny, 0.0, 0.0
 
 
 class WallLayout(NamedTuple):

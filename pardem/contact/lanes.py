@@ -28,6 +28,11 @@ BATCH = 64  # pairs per batch of the force loop: its work rows stay in L1
 # mass_row.
 (W_DX, W_DY, W_AI, W_AJ, W_DVX, W_DVY, W_WI, W_WJ, W_ACT, W_FX, W_FY, W_TI, W_TJ, W_FN, W_FTX,
  W_FTY, W_HIST) = range(17)
+# Row W_ACT holds each lane's state, a code: not within reach (the scatter skips it), touching,
+# or touching too deep (forces.py then measures the overlap). It lives in the float rows: an
+# int8 array beside them made LLVM guard the law loop's stores with a run-time alias check
+# and a scalar copy of the whole law, 6 % of B's step.
+ACT_NONE, ACT_TOUCH, ACT_DEEP = 0.0, 1.0, 2.0
 
 
 @nb.njit(**INLINE)

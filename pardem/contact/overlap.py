@@ -42,7 +42,7 @@ def too_deep(work, ln):
 @nb.njit(**INLINE)
 def note_deep(deep, index, delta, diameter, ring):
     """Keep the deepest overlap delta (m) beyond MAX_OVERLAP of ``diameter`` (m) in
-    ForceWork.deep: rare, so the pair loops only flag it (W_ACT = 2) and it is measured here."""
+    ForceWork.deep: rare, so the pair loops only flag it (W_ACT = ACT_DEEP) and it is measured here."""
     nd_ratio = delta / diameter
     if nd_ratio > MAX_OVERLAP and nd_ratio > deep[1]:
         deep[0] = index

@@ -64,8 +64,8 @@ def elastic_energy_rings(ps, pairs, prm, o, r_out):
     e = 0.0
     for q in range(pairs.wall_count[0]):
         i = pairs.wall[q]
-        ring, _, _, delta, _, _, _, _ = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0,
-                                                     r_out, 0.0, prm.rings)
+        ring, _, _, delta = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0, r_out,
+                                         prm.rings)
         law = pair_law(prm.pair_law, ps.species[i], ring_partner(prm.pair_law, ring), prm.law, o)
         e += elastic_energy(delta, ps.radius[i], ps.hist_wall, i, law, o)
     return e
@@ -83,7 +83,7 @@ def max_overlap_ratio(ps, pairs, prm, r_out):
         worst = max(worst, d / (2.0 * a))
     for q in range(pairs.wall_count[0]):
         i = pairs.wall[q]
-        d = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0, r_out, 0.0, prm.rings)[3]
+        d = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0, r_out, prm.rings).delta
         worst = max(worst, d / (2.0 * ps.radius[i]))
     return worst
 
@@ -116,8 +116,8 @@ def touching_rings(ps, pairs, prm, r_out):
     m = 0
     for q in range(pairs.wall_count[0]):
         i = pairs.wall[q]
-        ring, _, _, delta, _, _, _, _ = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0,
-                                                     r_out, 0.0, prm.rings)
+        ring, _, _, delta = ring_surface(ps.x[i, 0], ps.x[i, 1], ps.radius[i], 0.0, r_out,
+                                         prm.rings)
         if ring != 0 and delta > 0.0:
             q_out[m] = q
             ring_out[m] = ring

@@ -19,7 +19,7 @@ from typing import NamedTuple
 import numba as nb
 import numpy as np
 
-from ..contact.lanes import (BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX, W_FTY,
+from ..contact.lanes import (ACT_DEEP, ACT_NONE, ACT_TOUCH, BATCH, W_ACT, W_AI, W_AJ, W_DVX, W_DVY, W_DX, W_DY, W_FN, W_FTX, W_FTY,
                              W_FX, W_FY, W_HIST, W_TI, W_TJ, W_WI, W_WJ, gather_law, gather_masses,
                              lane_contact, work_size)
 from ..contact.damping import per_contact
@@ -178,7 +178,8 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure, deep):
                 work[h_in + np.uint64(c * BATCH + ln)] = sxi[kk * hw + np.uint64(c)]
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
             touching = lane_contact(work, ln, reach, prm.law, o)
-            work[W_ACT * BATCH + ln] = (2.0 if too_deep(work, ln) else 1.0) if touching else 0.0
+            work[W_ACT * BATCH + ln] = ((ACT_DEEP if too_deep(work, ln) else ACT_TOUCH) if touching
+                                        else ACT_NONE)
         if measure:
             for ln in range(m):
                 n_force += 1 if work[W_FN * BATCH + ln] != 0.0 else 0
@@ -205,9 +206,9 @@ def every_pair(ps, pairs, prm, reach, o, rotation, work, record, measure, deep):
                 acc_x = sf[cur + cur]
                 acc_y = sf[cur + cur + one]
                 acc_t = st[cur]
-            if work[W_ACT * BATCH + ln] != 0.0:
+            if work[W_ACT * BATCH + ln] != ACT_NONE:
                 jj = np.uint64(pj[kk])
-                if work[W_ACT * BATCH + ln] > 1.0:
+                if work[W_ACT * BATCH + ln] == ACT_DEEP:
                     delta, diameter = lane_overlap(work, ln, ps.kind[ii], ps.kind[jj])
                     note_deep(deep, float(kk), delta, diameter, 0.0)
                 acc_x += work[W_FX * BATCH + ln]
@@ -299,7 +300,8 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
             break
         for ln in range(BATCH):  # lanes past m: stale inputs, outputs never read
             touching = lane_contact(work, ln, reach, prm.law, o)
-            work[W_ACT * BATCH + ln] = (2.0 if too_deep(work, ln) else 1.0) if touching else 0.0
+            work[W_ACT * BATCH + ln] = ((ACT_DEEP if too_deep(work, ln) else ACT_TOUCH) if touching
+                                        else ACT_NONE)
         cur = np.uint64(pi[queue[0]])
         acc_x = sf[cur + cur]
         acc_y = sf[cur + cur + one]
@@ -322,9 +324,9 @@ def selected_pairs(ps, pairs, prm, reach, o, rotation, wk, record):
                 acc_y = sf[cur + cur + one]
                 acc_t = st[cur]
             n_force += 1 if work[W_FN * BATCH + ln] != 0.0 else 0
-            if work[W_ACT * BATCH + ln] != 0.0:
+            if work[W_ACT * BATCH + ln] != ACT_NONE:
                 jj = np.uint64(pj[kk])
-                if work[W_ACT * BATCH + ln] > 1.0:
+                if work[W_ACT * BATCH + ln] == ACT_DEEP:
                     delta, diameter = lane_overlap(work, ln, ps.kind[ii], ps.kind[jj])
                     note_deep(deep, float(kk), delta, diameter, 0.0)
                 acc_x += work[W_FX * BATCH + ln]

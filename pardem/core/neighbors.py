@@ -152,7 +152,7 @@ def ring_candidates(x, radius, n_owned, r_o, skin, rings, out):
     caller grows ``out`` and calls again)."""
     count = 0
     for i in range(n_owned):
-        ring = ring_surface(x[i, 0], x[i, 1], radius[i], skin, r_o, 0.0, rings)[0]
+        ring = ring_surface(x[i, 0], x[i, 1], radius[i], skin, r_o, rings).ring
         if ring != 0:
             if count < out.size:
                 out[count] = i
