@@ -208,7 +208,8 @@ def write_csv(args, rows, cost, w) -> None:
                 "machine's measured costs, with an assumed interconnect.\n"
                 "# script: run_scripts/benchmarks/ghost_counts.py\n"
                 f"# command: python run_scripts/benchmarks/ghost_counts.py {args.scene.name} "
-                f"--csv {args.csv.name} (ghost width {1e3 * w:.2f} mm; latency {lat} us, "
+                f"--csv {args.csv.name}" + (f" --figure {args.figure.name}" if args.figure else "")
+                + f" (ghost width {1e3 * w:.2f} mm; latency {lat} us, "
                 f"bandwidth {args.bandwidth / 1e9:g} GB/s assumed; measured costs {cost})\n"
                 "# units: owned_N = disks per rank of an N-disk cell; *_ghosts = ghosts of the "
                 "busiest rank; *_efficiency = c N / (P t_step) at the first latency, *_range "
