@@ -93,8 +93,9 @@ def run_one(scene: Path, restart: Path | None, p: int, cut: str, steps: int,
            "--steps", str(steps), "--samples", str(samples)]
     if restart is not None:
         cmd += ["--restart", str(restart)]
-    out = subprocess.run(cmd, check=True, capture_output=True, text=True, env=env,
-                         timeout=3600)
+    out = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=3600)
+    if out.returncode:
+        raise SystemExit(f"rank_counts.py: {p} ranks, --cut {cut} failed:\n{out.stderr[-3000:]}")
     return json.loads(out.stdout.strip().splitlines()[-1])
 
 

@@ -89,6 +89,7 @@ TABLES: dict[str, list[tuple[str, tuple[str, ...]]]] = {
          (_lo_hi("run_peak", "_MB") + " (**" + _lo_hi("run_peak", "_B") + "**)",)),
     ],
     "rank_counts": [
+        ("cell, t", ("{cell}, {t_s} s",)),
         ("P", ("{ranks}",)),
         ("cut (`--cut`)", ("{cut} ({requested})",)),
         ("owned / rank (max / mean)", ("{owned_mean:,} ({owned_imbalance})",)),
