@@ -10,7 +10,8 @@ Each (P, cut) is a fresh ``nice -n 19 mpiexec -n P`` job (``PARDEM_HALO=messages
 spin on a shared window while others hold the cores would stall), from the checkpoint or from
 the scene's placement, running ``--steps`` steps and sampling every rank's counts ``--samples``
 times (``Simulation.stats``: the counts between two exchanges). Two checks of the ghosts, from
-positions, independent of the exchange's code:
+positions, by code apart from the exchange's (pardem's distance to a domain, tested against
+closed forms in tests/test_ghost_counts.py):
 - ``same positions``: ``ghost_counts.count`` on the owned disks where the last exchange saw
   them, cut as that exchange cut them: must give each rank's ghosts exactly;
 - ``placement law``: ``ghost_counts.py``'s prediction (the scene's placement mapped onto the
