@@ -1,9 +1,10 @@
-"""The tables of ``docs/scaling.md`` rendered from the measurements committed in
-``results/scaling/`` (one CSV file per table; its ``#`` header says what was measured, by which
-script and command, and in which units). ``tests/test_manual.py`` checks that the page is current.
+"""The tables of ``docs/scaling.md`` and ``docs/scaling_variants.md`` rendered from the
+measurements committed in ``results/scaling/`` (one CSV file per table; its ``#`` header says what
+was measured, by which script and command, and in which units). ``tests/test_manual.py`` checks
+that the pages are current.
 
-    python run_scripts/benchmarks/scaling_tables.py          # rewrites docs/scaling.md's tables
-    python run_scripts/benchmarks/scaling_tables.py --check  # exit 1 if docs/scaling.md is stale
+    python run_scripts/benchmarks/scaling_tables.py          # rewrites the pages' tables
+    python run_scripts/benchmarks/scaling_tables.py --check  # exit 1 if a page is stale
 
 In the page each table stands between ``<!-- table: NAME -->`` and ``<!-- end -->``; the text
 around the markers is the page's own. A cell is the first of its templates whose fields are all
@@ -22,6 +23,9 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "scaling.md"
+VARIANTS_PAGE = ROOT / "docs" / "scaling_variants.md"
+PAGES = {PAGE: ["throughput", "stages", "memory_hierarchy", "memory", "rank_counts",
+                "machine_costs", "across_nodes"], VARIANTS_PAGE: ["variants"]}
 DATA = ROOT / "results" / "scaling"
 
 def _lo_hi(prefix: str, suffix: str = "") -> str:
@@ -84,17 +88,41 @@ TABLES: dict[str, list[tuple[str, tuple[str, ...]]]] = {
         ("the run's peak, MB (B per owned disk)",
          (_lo_hi("run_peak", "_MB") + " (**" + _lo_hi("run_peak", "_B") + "**)",)),
     ],
+    "rank_counts": [
+        ("cell, t", ("{cell}, {t_s} s",)),
+        ("P", ("{ranks}",)),
+        ("cut (`--cut`)", ("{cut} ({requested})",)),
+        ("owned / rank (max / mean)", ("{owned_mean:,} ({owned_imbalance})",)),
+        ("ghosts / rank, mean; max", ("{ghosts_mean:,}; {ghosts_max:,}",)),
+        ("ghosts / owned", ("{ghosts_per_owned}",)),
+        ("neighbours, mean; max", ("{neighbours_mean}; {neighbours_max}",)),
+        ("kB sent / step, mean; max", ("{kB_sent_mean}; {kB_sent_max}",)),
+        ("pairs / rank (max / mean)", ("{pairs_mean:,} ({pairs_imbalance})",)),
+        ("builds / 1000 steps; exchanges", ("{builds_per_1000}; {exchanges}",)),
+        ("recount, largest deviation", ("{ghosts_same_positions_dev}",)),
+        ("measured / placement law, mean; max",
+         ("{measured_over_predicted_mean}; {measured_over_predicted_max}",)),
+    ],
+    "machine_costs": [
+        ("quantity", ("{quantity}",)),
+        ("median (range)", ("{median} ({low}–{high})",)),
+        ("unit", ("{unit}",)),
+        ("measured by", ("{source}",)),
+    ],
     "across_nodes": [
         ("P", ("{ranks:,}",)),
-        ("owned / rank", ("{owned_per_rank:,}",)),
-        ("sectors: ghosts, busiest rank", ("{sectors_ghosts:,}",)),
-        ("ghosts / owned", ("{sectors_ghosts_per_owned}",)),
-        ("rings × sectors: ghosts, busiest rank", ("{rings_cut}: {rings_ghosts:,}",)),
-        ("ghosts / owned", ("{rings_ghosts_per_owned}",)),
-        ("modelled µs / step, sectors", ("{sectors_step_us:,}",)),
-        ("rings × sectors", ("{rings_step_us:,}",)),
-        ("efficiency, sectors", ("{sectors_efficiency}",)),
-        ("rings × sectors", ("{rings_efficiency}",)),
+        ("10⁶: owned / rank", ("{owned_1e6:,}",)),
+        ("sectors: ghosts; efficiency (α range)",
+         ("{sectors_1e6_ghosts:,}; **{sectors_1e6_efficiency}** ({sectors_1e6_efficiency_range})",
+          "refused")),
+        ("rings × sectors: cut, ghosts; efficiency",
+         ("{rings_cut}, {rings_1e6_ghosts:,}; **{rings_1e6_efficiency}** "
+          "({rings_1e6_efficiency_range})",)),
+        ("10⁷: owned / rank", ("{owned_1e7:,}",)),
+        ("sectors", ("{sectors_1e7_ghosts:,}; **{sectors_1e7_efficiency}** "
+                     "({sectors_1e7_efficiency_range})", "refused")),
+        ("rings × sectors", ("{rings_1e7_ghosts:,}; **{rings_1e7_efficiency}** "
+                             "({rings_1e7_efficiency_range})",)),
     ],
     "variants": [
         ("variant", ("{variant}",)),
@@ -153,30 +181,35 @@ def render_table(name: str) -> str:
 MARK = re.compile(r"(<!-- table: (\w+) -->\n)(.*?)(<!-- end -->)", re.S)
 
 
-def render(text: str | None = None) -> str:
+def render(text: str | None = None, page: Path = PAGE) -> str:
     """The page with every marked table rendered from its data file."""
-    text = PAGE.read_text(encoding="utf-8") if text is None else text
+    text = page.read_text(encoding="utf-8") if text is None else text
     names = [m.group(2) for m in MARK.finditer(text)]
-    if sorted(names) != sorted(TABLES):
-        raise SystemExit(f"{PAGE}: tables marked {sorted(names)}, expected {sorted(TABLES)}")
+    if sorted(names) != sorted(PAGES[page]):
+        raise SystemExit(f"{page}: tables marked {sorted(names)}, expected {sorted(PAGES[page])}")
     return MARK.sub(lambda m: m.group(1) + render_table(m.group(2)) + " " + m.group(4), text)
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
-    ap.add_argument("--check", action="store_true", help="exit 1 if docs/scaling.md is stale")
+    ap.add_argument("--check", action="store_true", help="exit 1 if a page is stale")
     args = ap.parse_args()
-    current = PAGE.read_text(encoding="utf-8")
-    new = render(current)
+    stale = []
+    for page in PAGES:
+        current = page.read_text(encoding="utf-8")
+        new = render(current, page)
+        if new == current:
+            continue
+        if args.check:
+            stale.append(str(page.relative_to(ROOT)))
+        else:
+            page.write_text(new, encoding="utf-8")
+            print(f"wrote {page.relative_to(ROOT)}")
+    if stale:
+        print(f"{', '.join(stale)} stale: run python run_scripts/benchmarks/scaling_tables.py")
+        sys.exit(1)
     if args.check:
-        if new != current:
-            print(f"{PAGE.relative_to(ROOT)} is stale: run "
-                  "python run_scripts/benchmarks/scaling_tables.py")
-            sys.exit(1)
-        print(f"{PAGE.relative_to(ROOT)} is current")
-    elif new != current:
-        PAGE.write_text(new, encoding="utf-8")
-        print(f"wrote {PAGE.relative_to(ROOT)}")
+        print("the scaling pages are current")
 
 
 if __name__ == "__main__":
