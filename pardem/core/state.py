@@ -28,6 +28,7 @@ import numpy as np
 from numba import literal_unroll
 
 from .jit import JIT
+from .timing import SLOTS
 
 if TYPE_CHECKING:
     from ..contact.model import LawParams
@@ -145,6 +146,8 @@ class Clock(NamedTuple):
     deep (float array [4]): the first overlap beyond contact.overlap.MAX_OVERLAP on this rank,
     (t s, gid of i, gid of j or -1/-2 for the inner/outer ring surface, overlap over the
     smaller diameter); t < 0: none. The step loop stops every rank at the next step.
+    timing (float array [timing.SLOTS], s): seconds per stage of the step loop, accumulated
+    only when it is compiled with ``Timing(on=True)`` (``core/timing.py``).
     """
 
     step: np.ndarray
@@ -158,6 +161,7 @@ class Clock(NamedTuple):
     disp: np.ndarray
     step_ref: np.ndarray
     deep: np.ndarray
+    timing: np.ndarray
 
 
 ROW_ROOM = 1.25
@@ -196,6 +200,7 @@ def new_clock(n_owned: int, n_local: int, r_out0: float) -> Clock:
         n_ghost=np.zeros(1, np.int64),
         r_out_ref=np.array([r_out0]), reach=np.zeros(1), disp=np.zeros(1),
         step_ref=np.zeros(1, np.int64), deep=np.array([-1.0, 0.0, 0.0, 0.0]),
+        timing=np.zeros(SLOTS),
     )
 
 

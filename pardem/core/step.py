@@ -42,6 +42,7 @@ from .forces import contact_forces, new_work
 from .integrate import drift, kick, wall_travel
 from .jit import JIT
 from .static import static
+from .timing import CLOSING, DRIFT, FORCES, KICK, REFRESH, STEPS, Timing, lap, stamp
 from ..parallel.refresh import refresh_ghosts
 
 OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED, TOO_DEEP = 0, 1, 2, 3, 4
@@ -52,13 +53,15 @@ FORCES_ONLY = 2  # Clock.phase: the next advance call only computes the forces
 class StepOptions:
     """Compile-time switches of one scene. ``walls``: Couette rings are present. ``predict``:
     velocity-dependent forces use v + dt/2 a (else the half-step v); the integrator ([time]
-    integrator) sets it together with ``contact.window``."""
+    integrator) sets it together with ``contact.window``. ``timing``: per-stage timers in
+    ``Clock.timing`` (``timing.py``; off, none are compiled in)."""
 
     contact: ContactOptions = ContactOptions()
     rotation: bool = True
     bottom_friction: bool = True
     walls: bool = True
     predict: bool = True
+    timing: Timing = Timing()
 
 
 class Stepper(NamedTuple):
@@ -75,6 +78,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
     if opts.contact.eta and not opts.contact.friction:
         raise ValueError("StepOptions: eta is tracked only with tangential friction")
     o = opts.contact
+    tm = opts.timing
 
     @nb.njit(**JIT)
     def advance(ps, pairs, clock, prm, halo, target):
@@ -89,17 +93,22 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 ps.v_pred[k, 0] = ps.v[k, 0]
                 ps.v_pred[k, 1] = ps.v[k, 1]
                 ps.w_pred[k] = ps.omega[k]
+        timers = clock.timing
         while forces_only or clock.step[0] < target or clock.phase[0] == 1:
+            t = stamp(tm)
             if clock.phase[0] == 0:
                 kick(ps, n_owned, h, prm, opts, False)
+                t = lap(tm, timers, KICK, t)
                 bad, disp, v2 = drift(ps, clock, prm, opts, scratch)
+                t = lap(tm, timers, DRIFT, t)
                 # ghosts to t + dt; every rank learns the global maxima (one rank: no-op), and
                 # whether any rank has a bad particle or an overlap beyond MAX_OVERLAP since
                 # the last step: every rank stops at this step
                 deep = clock.deep[0] >= 0.0
                 err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0],
                                                         bad >= 0 or deep, disp, v2,
-                                                        clock.step[0])
+                                                        clock.step[0], tm, timers)
+                t = lap(tm, timers, REFRESH, t)
                 if err != 0:
                     return MPI_FAILED, -1
                 if bad_any:
@@ -117,6 +126,7 @@ def make_stepper(opts: StepOptions) -> Stepper:
             record = forces_only or clock.step[0] >= target
             contact_forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], o,
                            opts.rotation, opts.walls, work, record)
+            t = lap(tm, timers, FORCES, t)
             if work.deep[0] >= 0.0 and clock.deep[0] < 0.0:  # the first: named by gid
                 k = int(work.deep[0])
                 ring = work.deep[2]
@@ -128,6 +138,9 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 clock.phase[0] = 0
                 return OK, -1
             kick(ps, n_owned, h, prm, opts, True)
+            lap(tm, timers, CLOSING, t)
+            if tm.on:
+                timers[STEPS] += 1.0
             clock.phase[0] = 0
         return OK, -1
 
