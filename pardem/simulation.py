@@ -197,7 +197,7 @@ class Simulation(SimulationBuilder, StateViews, RunOutput):
         """Stop every rank with the first rank's message (collective): an overlap beyond
         MAX_OVERLAP on this rank first (it is why particles go bad), else ``message``."""
         if self.clock.deep[0] >= 0.0:
-            message = too_deep_message(self.clock.deep, self.dt)
+            message = too_deep_message(self.clock.deep[:4], self.dt)
         message = self.decomp.first_message(message)
         self.log(f"run stopped: {message}")
         raise SimulationError(message)

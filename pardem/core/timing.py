@@ -1,15 +1,17 @@
 """Per-stage timers of the step loop, compiled in only when a run asks for them
 (``pardem run --timing``, ``Simulation(..., timing=True)``).
 
-Stage: diagnostics. ``Timing`` is a ``@static`` switch inside ``StepOptions``: with ``on``
-False every ``stamp`` folds to the constant 0.0 and every ``lap`` to nothing, so the default
-step loop is the untimed one (the same machine code, not a tested flag). On, each stage boundary
-reads the monotonic clock (``clock_gettime``, a vDSO call of ~20 ns, no MPI: a serial run
-times itself too) and adds the stage's seconds to ``Clock.timing``:
+Stage: diagnostics. ``Timing`` is a ``@static`` switch inside ``StepOptions``. Off, the step
+loop's timer branches are pruned before typing (``step.py``) and the refresh's ``stamp`` and
+``lap`` fold to nothing, with no new argument or field: the default loop is compiled from the
+same typed code as before the timers existed. On, each stage boundary reads the monotonic
+clock (``clock_gettime``, no MPI: a serial run times itself too) and adds the stage's seconds
+to an accumulator:
 
-    KICK, DRIFT, REFRESH (all of the ghost refresh), PACK and UNPACK (its parts besides the
-    wait, which ``Halo.wait`` measures in every run), FORCES, CLOSING (closing kick), STEPS
-    (steps timed: the divisor of a per-step figure).
+    Clock.deep[KICK], [DRIFT], [REFRESH] (all of the ghost refresh), [FORCES], [CLOSING]
+    (closing kick), [STEPS] (steps timed: the divisor of a per-step figure);
+    Halo.wait[PACK], [UNPACK]: the refresh's parts besides the wait (Halo.wait[0], measured
+    in every run).
 
 The builds are timed in Python (``Simulation.timers``, ``Rebuilder.exchange_seconds``): they
 run a few hundred times less often than a step.
@@ -23,13 +25,14 @@ from numba.extending import intrinsic, register_jitable
 
 from .static import static
 
-KICK, DRIFT, REFRESH, PACK, UNPACK, FORCES, CLOSING, STEPS = range(8)
-SLOTS = 8
+KICK, DRIFT, REFRESH, FORCES, CLOSING, STEPS = range(4, 10)  # Clock.deep[:4]: the overlap
+END = 10
+PACK, UNPACK = 1, 2  # in Halo.wait
 
 
 @static
 class Timing:
-    """``on``: the step loop accumulates its stages' seconds in ``Clock.timing``."""
+    """``on``: the step loop accumulates its stages' seconds (module docstring)."""
 
     on: bool = False
 

@@ -114,11 +114,10 @@ def stage_table(sim) -> str | None:
     (``core/timing.py``) and the builds' Python timers. "step" is the compiled call's wall
     time, the stages plus the timers' own cost; the refresh holds the wait (for the
     neighbours' blocks, and any Allreduce), pack and unpack; the rebuild holds the exchange."""
-    t = sim.clock.timing
+    t, w = sim.clock.deep, sim.decomp.wait
     steps = max(t[STEPS], 1.0)
     d = sim.decomp
-    wait = float(d.wait[0]) if d.parallel else 0.0
-    seconds = [t[KICK], t[DRIFT], t[REFRESH], wait, t[PACK], t[UNPACK], t[FORCES], t[CLOSING],
+    seconds = [t[KICK], t[DRIFT], t[REFRESH], w[0], w[PACK], w[UNPACK], t[FORCES], t[CLOSING],
                sim.timers["forces+integration"], sim.timers["neighbour rebuild"],
                sim.rebuilder.exchange_seconds]
     rows = d.join(1e6 * np.array([seconds]) / steps)

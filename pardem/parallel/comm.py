@@ -71,7 +71,7 @@ class Decomposition:
         self.balance_threshold = balance_threshold
         self.cut = ct.single()
         self.halo: Halo | None = None  # the refresh plan, made at the first exchange
-        self.wait = np.zeros(1)  # s waiting in the refresh, over every plan of the run
+        self.wait = np.zeros(3)  # s waiting, packing, unpacking (Halo.wait), the run's sums
         self.n_migrated = 0  # particles received from other ranks (cumulative)
         self.n_rebalanced = 0
         self._balance_calls = 0

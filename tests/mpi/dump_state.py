@@ -20,8 +20,8 @@ place; the number of such exchanges on a rank that received migrants is saved. `
 decomposition (``Simulation(cut=...)``); the rings of the cut used are saved.
 ``--balance-threshold``: re-cut when the owned counts differ by more than this fraction
 (default 0.1; 0 re-cuts at nearly every check). ``--timing``: the step loop with its stage
-timers (``Simulation(timing=True)``); each rank's ``Clock.timing``, then its refresh wait (s),
-is saved as a row of ``timing``.
+timers (``Simulation(timing=True)``); each rank's ``Clock.deep`` followed by its
+``Decomposition.wait`` is saved as a row of ``timing``.
 """
 
 import argparse
@@ -135,8 +135,7 @@ def main():
     idle_walls = comm.allreduce(idle.stop - idle.start)
     idle_pairs = comm.allreduce(int(in_idle.sum()))
     regrown = comm.allreduce(REGROWN[0])
-    timing = np.array(comm.gather(np.append(sim.clock.timing, sim.decomp.wait[0])
-                                  if sim.decomp.parallel else sim.clock.timing, root=0))
+    timing = np.array(comm.gather(np.append(sim.clock.deep, sim.decomp.wait), root=0))
     if comm.rank == 0:
         np.savez(args.out, **arrays, step=attrs["step"], migrated=migrated,
                  rebuilds=sim.n_rebuilds, exchanges=sim.decomp.n_exchanges,
