@@ -36,6 +36,7 @@ from .core.neighbors import WALL_SKINS
 from .core.rebuild import Rebuilder
 from .core.state import Params, new_clock, new_pairs
 from .core.step import StepOptions, make_stepper
+from .core.timing import KICK, Timing
 from .core.timestep import resolve_step
 from .input.placement import initial_configuration, rank_share
 from .input.scene import Scene, SceneError
@@ -57,7 +58,7 @@ class SimulationBuilder:
 
     def __init__(self, scene: Scene, out_dir: str | Path | None = None,
                  restart: str | Path | None = None, comm=None, overwrite: bool = False,
-                 cut: str = "auto", branch: str | Path | None = None):
+                 cut: str = "auto", branch: str | Path | None = None, timing: bool = False):
         if restart is not None and branch is not None:
             raise SceneError("--restart and --from: give one (--restart continues the same "
                              "scene, --from branches a new run off a prepared state)")
@@ -73,7 +74,8 @@ class SimulationBuilder:
         self.hist = len(self.history_columns)
         self.options = StepOptions(self.contact, e.rotation, e.bottom_friction,
                                    flat_surfaces(scene),
-                                   predict=scene.time.integrator == "verlet")
+                                   predict=scene.time.integrator == "verlet",
+                                   timing=Timing(timing))
         self.stepper = make_stepper(self.options)
         self.timers = {"forces+integration": 0.0, "neighbour rebuild": 0.0, "averaging": 0.0,
                        "snapshots": 0.0, "checkpoints": 0.0, "progress": 0.0}
@@ -180,10 +182,13 @@ class SimulationBuilder:
         return breakdown(self)
 
     def reset_timers(self) -> None:
-        """Zero the stage timers, the waiting time and the build count (benchmarks)."""
+        """Zero the stage timers (those of a ``timing`` step loop too), the waiting time and
+        the build count (benchmarks)."""
         for key in self.timers:
             self.timers[key] = 0.0
-        self.decomp.wait[0] = 0.0
+        self.clock.deep[KICK:] = 0.0
+        self.rebuilder.exchange_seconds = 0.0
+        self.decomp.wait[:] = 0.0
         self.n_rebuilds = 0
 
     # -- setting up -------------------------------------------------------------------------

@@ -51,6 +51,9 @@ def main(argv: list[str] | None = None) -> int:
                      help="replace the run in the output folder (refused otherwise, except a "
                           "restart of the same scene, which continues it)")
     run.add_argument("--quiet", action="store_true", help="no progress line")
+    run.add_argument("--timing", action="store_true",
+                     help="time each stage of the step loop and print us per step of each, "
+                          "per rank, at the end (timers compiled in only with this option)")
     run.add_argument("--cut", default="auto",
                      help="how the annulus is cut among MPI ranks: 'auto' (the cut with the "
                           "fewest ghosts per rank), 'sectors', or RINGSxSECTORS such as 2x4; "
@@ -136,7 +139,8 @@ def main(argv: list[str] | None = None) -> int:
                  f"cache, or compile on the first run of this set of effects ({watch.plan()})")
         with watch:  # numba compiles at first calls: in the set-up and the first steps
             sim = Simulation(scene, out_dir=out, restart=args.restart, comm=comm,
-                             overwrite=args.overwrite, cut=args.cut, branch=args.branch)
+                             overwrite=args.overwrite, cut=args.cut, branch=args.branch,
+                             timing=args.timing)
             if root:
                 compiled = (f" (compiled {watch.kernels} kernels in {watch.seconds:.0f} s)"
                             if watch.kernels else "")

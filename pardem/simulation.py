@@ -33,7 +33,7 @@ from .core.watchdog import bad_particle_message, too_deep_message
 from .input.scene import SceneError
 from .input.scene_file import write_scene
 from .output.folder import lock_unchanged
-from .output.progress import breakdown, end_progress, start_notes
+from .output.progress import breakdown, end_progress, stage_table, start_notes
 from .output.progress import report as report_progress
 from .output.run_output import RunOutput
 from .output.warnings import RunWarnings
@@ -57,7 +57,9 @@ class Simulation(SimulationBuilder, StateViews, RunOutput):
     (None: no files); it must not hold another run unless ``overwrite``. ``comm``: an mpi4py
     communicator to run on (None: serial, MPI never loaded). ``cut``: how the annulus is cut
     among the ranks ("auto": the cut with the fewest ghosts; "sectors"; "RxA": R rings of A
-    sectors); results do not depend on it.
+    sectors); results do not depend on it. ``timing``: compile per-stage timers into the
+    step loop and print microseconds per step of each stage on every rank at the end of each
+    ``run`` (``pardem run --timing``; off, the loop has no timers at all).
 
     Public state: ``time`` (s), ``step``, ``dt`` (s), ``n_free``, ``timers`` (s per stage),
     ``n_rebuilds``, ``rings`` (the in-situ RingAverager after a run with [averaging]).
@@ -153,6 +155,11 @@ class Simulation(SimulationBuilder, StateViews, RunOutput):
         if progress and root:
             end_progress()
             sys.stderr.write(breakdown(self) + "\n")
+        if self.options.timing.on:  # collective
+            stages = stage_table(self)
+            if root:
+                self.log(stages)
+                sys.stderr.write(stages + "\n")
         if signum:  # stopped by a signal (on some rank); the writers have closed
             stopped = stop.Interrupted(signum, self.time, self.step)
             self.log(f"run {stopped}; the checkpoint holds this state")
@@ -190,7 +197,7 @@ class Simulation(SimulationBuilder, StateViews, RunOutput):
         """Stop every rank with the first rank's message (collective): an overlap beyond
         MAX_OVERLAP on this rank first (it is why particles go bad), else ``message``."""
         if self.clock.deep[0] >= 0.0:
-            message = too_deep_message(self.clock.deep, self.dt)
+            message = too_deep_message(self.clock.deep[:4], self.dt)
         message = self.decomp.first_message(message)
         self.log(f"run stopped: {message}")
         raise SimulationError(message)

@@ -4,6 +4,7 @@ frozen scenes equals, bit for bit, the digest stored from the code before the re
 
 import pytest
 from mpi_helpers import dump_state
+from pardem.core.timing import END, PACK, REFRESH, STEPS, UNPACK
 from regression import CASES, REFERENCE, digest, expected
 
 
@@ -29,3 +30,16 @@ def test_a_restart_continues_to_the_stored_reference(tmp_path):
                        str(ckpt))
     assert int(state["step"]) == ref["steps"]
     assert digest(state) == {"dynamics": ref["dynamics"], "eta": ref["eta"]}
+
+
+def test_a_timed_run_keeps_the_reference_and_times_the_refresh_in_parts(tmp_path):
+    """The step loop with its stage timers (``pardem run --timing``) on 2 ranks: the same
+    digest, every step counted once per rank, and the refresh's parts within it."""
+    name, ref = "fast_shear.toml", expected()["fast_shear.toml"]
+    state = dump_state(REFERENCE / name, ref["steps"], tmp_path / "t.npz", 2, "--timing")
+    assert digest(state) == {"dynamics": ref["dynamics"], "eta": ref["eta"]}
+    for rank, row in enumerate(state["timing"]):
+        t, w = row[:END], row[END:]  # Clock.deep, then Decomposition.wait
+        assert t[STEPS] == ref["steps"], rank
+        assert w[PACK] > 0.0 and w[UNPACK] > 0.0, rank
+        assert w[0] + w[PACK] + w[UNPACK] <= t[REFRESH], rank

@@ -25,6 +25,8 @@ lists, so an exchange build is the exchange's three compiled calls and one build
 
 from __future__ import annotations
 
+import time
+
 from ..contact.history import NO_HISTORY
 from .integrate import wall_travel
 from .memory import unmapped
@@ -41,6 +43,7 @@ class Rebuilder:
 
     def __init__(self, sim):
         self.sim = sim
+        self.exchange_seconds = 0.0  # s in Decomposition.exchange (part of the builds' time)
 
     def rebuild(self, history=None, rebalance: bool = True, forced: bool = True) -> None:
         """New neighbour lists, in the order of the module docstring. ``forced``: under MPI,
@@ -56,8 +59,10 @@ class Rebuilder:
             with unmapped():  # its blocks fit no build's (memory.py)
                 if rebalance:
                     decomp.rebalance(sim.ps.x[:int(sim.clock.n_owned[0])])
+                t0 = time.perf_counter()
                 sim.ps, history = decomp.exchange(sim.ps, sim.pairs, sim.clock, sim.hist,
                                                   history, sim.wall_margin)
+                self.exchange_seconds += time.perf_counter() - t0
         if sim.prm.wall_disks:  # every rank builds at the same step: the same skin everywhere
             sim.prm = sim.prm._replace(wall_skin=next_wall_skin(wall_travel(sim.clock, sim.prm),
                                                                 sim.prm.skin))

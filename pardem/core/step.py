@@ -42,6 +42,7 @@ from .forces import contact_forces, new_work
 from .integrate import drift, kick, wall_travel
 from .jit import JIT
 from .static import static
+from .timing import CLOSING, DRIFT, FORCES, KICK, REFRESH, STEPS, Timing, lap, stamp
 from ..parallel.refresh import refresh_ghosts
 
 OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED, TOO_DEEP = 0, 1, 2, 3, 4
@@ -52,13 +53,15 @@ FORCES_ONLY = 2  # Clock.phase: the next advance call only computes the forces
 class StepOptions:
     """Compile-time switches of one scene. ``walls``: Couette rings are present. ``predict``:
     velocity-dependent forces use v + dt/2 a (else the half-step v); the integrator ([time]
-    integrator) sets it together with ``contact.window``."""
+    integrator) sets it together with ``contact.window``. ``timing``: per-stage timers in
+    ``Clock.deep`` (``timing.py``; off, none are compiled in)."""
 
     contact: ContactOptions = ContactOptions()
     rotation: bool = True
     bottom_friction: bool = True
     walls: bool = True
     predict: bool = True
+    timing: Timing = Timing()
 
 
 class Stepper(NamedTuple):
@@ -75,6 +78,10 @@ def make_stepper(opts: StepOptions) -> Stepper:
     if opts.contact.eta and not opts.contact.friction:
         raise ValueError("StepOptions: eta is tracked only with tangential friction")
     o = opts.contact
+    tm = opts.timing
+    # a closed-over constant: numba prunes the timers' branches before typing when it is off,
+    # so the untimed loop is compiled from the same code as before the timers existed
+    timed = tm.on
 
     @nb.njit(**JIT)
     def advance(ps, pairs, clock, prm, halo, target):
@@ -90,16 +97,24 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 ps.v_pred[k, 1] = ps.v[k, 1]
                 ps.w_pred[k] = ps.omega[k]
         while forces_only or clock.step[0] < target or clock.phase[0] == 1:
+            if timed:
+                t = stamp(tm)
             if clock.phase[0] == 0:
                 kick(ps, n_owned, h, prm, opts, False)
+                if timed:
+                    t = lap(tm, clock.deep, KICK, t)
                 bad, disp, v2 = drift(ps, clock, prm, opts, scratch)
+                if timed:
+                    t = lap(tm, clock.deep, DRIFT, t)
                 # ghosts to t + dt; every rank learns the global maxima (one rank: no-op), and
                 # whether any rank has a bad particle or an overlap beyond MAX_OVERLAP since
                 # the last step: every rank stops at this step
                 deep = clock.deep[0] >= 0.0
                 err, bad_any, disp, v2 = refresh_ghosts(ps, halo, clock.n_local[0],
                                                         bad >= 0 or deep, disp, v2,
-                                                        clock.step[0])
+                                                        clock.step[0], tm)
+                if timed:
+                    t = lap(tm, clock.deep, REFRESH, t)
                 if err != 0:
                     return MPI_FAILED, -1
                 if bad_any:
@@ -117,6 +132,8 @@ def make_stepper(opts: StepOptions) -> Stepper:
             record = forces_only or clock.step[0] >= target
             contact_forces(ps, pairs, n_all, prm, clock.step[0] * prm.dt, clock.reach[0], o,
                            opts.rotation, opts.walls, work, record)
+            if timed:
+                t = lap(tm, clock.deep, FORCES, t)
             if work.deep[0] >= 0.0 and clock.deep[0] < 0.0:  # the first: named by gid
                 k = int(work.deep[0])
                 ring = work.deep[2]
@@ -128,6 +145,9 @@ def make_stepper(opts: StepOptions) -> Stepper:
                 clock.phase[0] = 0
                 return OK, -1
             kick(ps, n_owned, h, prm, opts, True)
+            if timed:
+                lap(tm, clock.deep, CLOSING, t)
+                clock.deep[STEPS] += 1.0
             clock.phase[0] = 0
         return OK, -1
 

@@ -11,7 +11,10 @@ import sys
 import time
 from pathlib import Path
 
+import numpy as np
+
 from ..core.timestep import off_step_text
+from ..core.timing import CLOSING, DRIFT, FORCES, KICK, PACK, REFRESH, STEPS, UNPACK
 
 
 def log_line(out_dir: Path | None, text: str) -> None:
@@ -99,3 +102,31 @@ def report(sim, since: list, end_step: int, progress: bool, overlap: float) -> N
     sim.log(line)
     if progress:
         show_progress(line)
+
+
+STAGE_COLUMNS = ("kick", "drift", "refresh", "(wait", "pack", "unpack)", "forces",
+                 "closing kick", "step", "rebuild", "(exchange)")
+
+
+def stage_table(sim) -> str | None:
+    """Microseconds per step of each stage of the step loop on every rank (collective; the
+    text on rank 0, None elsewhere), from the timers a ``timing`` run compiles in
+    (``core/timing.py``) and the builds' Python timers. "step" is the compiled call's wall
+    time, the stages plus the timers' own cost; the refresh holds the wait (for the
+    neighbours' blocks, and any Allreduce), pack and unpack; the rebuild holds the exchange."""
+    t, w = sim.clock.deep, sim.decomp.wait
+    steps = max(t[STEPS], 1.0)
+    d = sim.decomp
+    seconds = [t[KICK], t[DRIFT], t[REFRESH], w[0], w[PACK], w[UNPACK], t[FORCES], t[CLOSING],
+               sim.timers["forces+integration"], sim.timers["neighbour rebuild"],
+               sim.rebuilder.exchange_seconds]
+    rows = d.join(1e6 * np.array([seconds]) / steps)
+    if d.rank != 0:
+        return None
+    head = "  rank " + "".join(f"{c:>9s}" if len(c) < 9 else f" {c}" for c in STAGE_COLUMNS)
+    lines = [f"us per step of each stage ({int(t[STEPS])} steps timed on rank 0, "
+             f"{sim.n_rebuilds} neighbour builds):", head]
+    for r, row in enumerate(rows):
+        lines.append(f"  {r:4d} " + "".join(
+            f"{v:{max(9, len(c) + 1)}.2f}" for v, c in zip(row, STAGE_COLUMNS)))
+    return "\n".join(lines)

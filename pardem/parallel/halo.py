@@ -35,6 +35,7 @@ import numpy as np
 from mpi4py import MPI
 
 from ..core.jit import JIT
+from ..core.timing import PACK, UNPACK, lap, stamp
 from .native import (load_acquire, mpi_allreduce, mpi_alltoall, mpi_alltoallv, mpi_irecv,
                      mpi_isend, mpi_waitall, mpi_wtime, sched_yield, store_release)
 from .plan import Halo, HaloConfig, Handles
@@ -76,7 +77,7 @@ def make_halo(comm, buffers: tuple, use_allreduce: bool, wait: np.ndarray | None
     if not shared:
         window, peer_at = _NO_WINDOW, np.zeros(0, np.int64)
     return Halo(*buffers, window.shared, window.seq, peer_at, cfg,
-                np.zeros(1) if wait is None else wait)
+                np.zeros(3) if wait is None else wait)
 
 
 class SharedWindow:
@@ -171,22 +172,25 @@ def alltoallv(sbuf, send_off, handles):
 
 
 @nb.njit(**JIT)
-def exchange_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step):
+def exchange_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step, timing):
     """Send owned boundary particles' x, v_pred, w_pred to the neighbours, receive the ghosts into
     ps[first_ghost:], and combine the headers into global maxima (``step``: the step the ghosts
-    move to). Returns ``(mpi_error, bad_anywhere, disp, v2)``."""
+    move to). Returns ``(mpi_error, bad_anywhere, disp, v2)``. ``timing`` on: the packing and
+    unpacking are added to halo.wait[PACK], halo.wait[UNPACK] (``core.timing``)."""
     cfg = halo.cfg
     shared = cfg.shared != 0
     k = halo.nbr.size
     err = 0
     req = halo.req.ctypes.data
     base = SEQ + (step & 1) * cfg.cap  # this step's buffer in the shared rows
+    t = stamp(timing)
     if shared:
         out = halo.shared[cfg.rank]
         for q in range(k):
             _pack(ps, halo, q, out, base + HEADER * q + GHOST_VALUES * halo.send_off[q],
                   bad_here, disp_here, v2_here)
         store_release(halo.seq[cfg.rank], 0, step)
+        lap(timing, halo.wait, PACK, t)
         t0 = mpi_wtime()
         spins = 0
         for q in range(k):
@@ -206,9 +210,11 @@ def exchange_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step):
             cnt = _pack(ps, halo, q, halo.sbuf, s0, bad_here, disp_here, v2_here)
             err |= mpi_isend(halo.sbuf.ctypes.data + 8 * s0, cnt, cfg.double, halo.nbr[q], TAG,
                              cfg.comm, req + cfg.request_size * (k + q))
+        lap(timing, halo.wait, PACK, t)
         t0 = mpi_wtime()
         err |= mpi_waitall(2 * k, req, halo.status.ctypes.data)
         halo.wait[0] += mpi_wtime() - t0
+    t = stamp(timing)
     bad_f = 1.0 if bad_here else 0.0
     disp, v2 = disp_here, v2_here
     g = first_ghost
@@ -229,6 +235,7 @@ def exchange_ghosts(ps, halo, first_ghost, bad_here, disp_here, v2_here, step):
             ps.w_pred[g] = rb[p + 4]
             p += GHOST_VALUES
             g += 1
+    lap(timing, halo.wait, UNPACK, t)
     if cfg.allreduce:
         red = halo.red
         red[0] = bad_f

@@ -50,9 +50,10 @@ class Halo(NamedTuple):
     shared [P, SEQ + 2 cap], seq (the same memory as int64): the shared-memory window, one row
     per rank (dummies without it). peer_at [k]: where neighbour q keeps this rank's block in
     its buffer. cfg: HaloConfig.
-    wait [1] (s): time spent waiting for the neighbours' blocks (shared memory) or in
+    wait [3] (s): time spent waiting for the neighbours' blocks (shared memory) or in
     MPI_Waitall, and in MPI_Allreduce, accumulated over the run (the decomposition passes the
-    same array to every new plan): the exchange latency plus the wait for slower neighbours.
+    same array to every new plan): the exchange latency plus the wait for slower neighbours;
+    then, in a timed step loop only (``core/timing.py``), the time packing and unpacking.
     """
 
     nbr: np.ndarray

@@ -24,7 +24,7 @@ class SerialDecomposition:
         self.margin = margin
         self.ghost_width = reach_width + margin
         self.cut = ct.single()
-        self.wait = np.zeros(1)
+        self.wait = np.zeros(3)
         self.n_exchanges = self.n_migrated = self.n_rebalanced = 0
         self.n_windows = self.n_shared_exchanges = 0
 

@@ -4,7 +4,7 @@ and 2 ranks, and start-up cost; optionally against an older commit, side by side
     python run_scripts/benchmarks/bench.py [--scene run_scripts/scenes/couette_B.toml]
                                            [--at 2.5] [--steps 20000] [--repeats 5]
                                            [--ranks 1 2] [--startup] [--eta off|on|both]
-                                           [--against REV] [--checkpoint FILE]
+                                           [--against REV] [--checkpoint FILE] [--timing]
 
 Runs the scene once to ``--at`` seconds (default 2.5 s: B's compression ends at 2 s; not timed)
 and checkpoints it. Then times
@@ -23,7 +23,8 @@ minutes; the file must come from this scene and ``--at``). ``--against REV``: th
 same runs with the code of git revision REV (checked out into a temporary worktree, its own
 bench.py's worker on its own compressed checkpoint of this tree's couette_B.toml, or on
 ``--checkpoint`` if given) alternating with this code's, round by round; prints the ratio of
-the medians and the per-round ratios.
+the medians and the per-round ratios. ``--timing``: this code's runs also time each stage of
+the step loop (``pardem run --timing``) and print its table per rank.
 """
 
 from __future__ import annotations
@@ -95,15 +96,19 @@ def compress_in(tree: Path, ckpt: Path, env: dict, scene: Path = SCENE, at: floa
                    check=True, env=dict(env, PYTHONPATH=str(tree)))
 
 
-def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
-    """One timed run (under mpiexec): prints a JSON line on rank 0."""
+def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE, timing: bool = False) -> None:
+    """One timed run (under mpiexec): prints a JSON line on rank 0. ``timing``: the step loop
+    with its per-stage timers (``pardem run --timing``), their table in the line."""
     from mpi4py import MPI
 
+    from pardem.output.progress import stage_table
     from pardem.simulation import Simulation
 
     comm = MPI.COMM_WORLD
     t0 = time.perf_counter()
-    run = Simulation(scene_of(scene, eta), restart=ckpt, comm=comm if comm.size > 1 else None)
+    extra = {"timing": True} if timing else {}  # an older revision's worker knows no timing
+    run = Simulation(scene_of(scene, eta), restart=ckpt, comm=comm if comm.size > 1 else None,
+                     **extra)
     setup = time.perf_counter() - t0
     assert run.contact.eta == eta
     # compiled code loaded and caches warm, the builds' code included
@@ -112,17 +117,6 @@ def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
         run.advance_steps(50)
     run.reset_timers()
     exchanges = run.decomp.n_exchanges
-    spent = []  # s per exchange (the build that migrates, selects ghosts and lists)
-    if comm.size > 1:
-        rebuild = run.rebuilder.rebuild
-
-        def timed(*args, **kwargs):
-            t, before = time.perf_counter(), run.decomp.n_exchanges
-            rebuild(*args, **kwargs)
-            if run.decomp.n_exchanges > before:
-                spent.append(time.perf_counter() - t)
-
-        run.rebuilder.rebuild = timed
     comm.Barrier()
     t0 = time.perf_counter()
     run.advance_steps(steps)
@@ -131,21 +125,23 @@ def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE) -> None:
     mine = run.stats()
     mine["rss"] = resource.getrusage(resource.RUSAGE_SELF).ru_maxrss * 1024  # bytes (Linux)
     mine["setup"] = setup
-    mine["exchange_s"] = sum(spent)
+    mine["exchange_s"] = run.rebuilder.exchange_seconds  # the exchanges' share of the builds
     mine.update({"step_us": 1e6 * run.timers["forces+integration"] / steps,
                  "rebuild_us": 1e6 * run.timers["neighbour rebuild"] / steps,
                  "wait_us": 1e6 * mine.pop("wait") / steps})
     ranks = comm.gather(mine, root=0)
+    stages = stage_table(run) if timing else None  # collective
     if comm.rank == 0:
         print(json.dumps({"wall": wall, "n_free": run.n_free, "rebuilds": run.n_rebuilds,
                           "exchanges": run.decomp.n_exchanges - exchanges,
                           "ghosts": [r["ghosts"] for r in ranks], "ranks": ranks,
-                          "breakdown": run.breakdown()}))
+                          "breakdown": run.breakdown() + (f"\n{stages}" if stages else "")}))
 
 
 def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
                against: str | None = None, scene: Path = SCENE,
-               at: float = 2.5, checkpoint: Path | None = None) -> dict[int, float]:
+               at: float = 2.5, checkpoint: Path | None = None,
+               timing: bool = False) -> dict[int, float]:
     """Median flow-particle-steps/s for each rank count (also printed, with every run).
 
     The rank counts take turns (round k runs every count once), so that the machine's slow
@@ -153,7 +149,8 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
     as the median of the per-round ratios, each from runs a few seconds apart. ``eta`` "both":
     each rank count runs without and with eta in turn; the cost of eta is printed likewise.
     ``against``: a git revision whose code runs each round too (see the module docstring; its
-    bench.py must know --scene unless ``scene`` is couette_B)."""
+    bench.py must know --scene unless ``scene`` is couette_B). ``timing``: this code's runs
+    time their stages (``pardem run --timing``; the timers' cost is in its rates)."""
     env = dict(os.environ, NUMBA_NUM_THREADS="1", OMP_NUM_THREADS="1")
     mpiexec = Path(sys.executable).parent / "mpiexec"
     variants = {"off": [False], "on": [True], "both": [False, True]}[eta]
@@ -184,7 +181,8 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
                     for e in variants:
                         for code in codes:
                             res = last[code, p, e] = _worker_run(
-                                mpiexec, trees[code], ckpts[code], steps, e, p, env, scene)
+                                mpiexec, trees[code], ckpts[code], steps, e, p, env, scene,
+                                timing and code == "new")
                             rates[code, p, e].append(res["n_free"] * steps / res["wall"])
                             print(f"{code if against else ''} {p} rank(s){', eta' if e else ''}, "
                                   f"run {k + 1}: {steps} steps in {res['wall']:.3f} s -> "
@@ -246,7 +244,8 @@ def throughput(steps: int, repeats: int, ranks: list[int], eta: str = "off",
 
 
 def _exchange_cost(res: dict) -> str:
-    """', N exchanges, X ms each' (rank 0's mean, lists included) for a parallel run."""
+    """', N exchanges, X ms each' (rank 0's mean, the lists' build after it not included)
+    for a parallel run."""
     n = res.get("exchanges", 0)
     if not n:
         return ""
@@ -254,12 +253,13 @@ def _exchange_cost(res: dict) -> str:
 
 
 def _worker_run(mpiexec: Path, tree: Path, ckpt: Path, steps: int, eta: bool, ranks: int,
-                env: dict, scene: Path = SCENE) -> dict:
+                env: dict, scene: Path = SCENE, timing: bool = False) -> dict:
     """One timed run of the code in ``tree`` (its own bench.py worker)."""
     out = subprocess.run(
         [str(mpiexec), "-n", str(ranks), sys.executable, "-m", "mpi4py",
          str(layout(tree)[0] / "bench.py"), "--worker", str(ckpt), "--steps", str(steps),
-         "--eta", "on" if eta else "off", *(["--scene", str(scene)] if scene != SCENE else [])],
+         "--eta", "on" if eta else "off", *(["--scene", str(scene)] if scene != SCENE else []),
+         *(["--timing"] if timing else [])],
         check=True, capture_output=True, text=True, env=dict(env, PYTHONPATH=str(tree)),
         timeout=3600)
     return json.loads(out.stdout.strip().splitlines()[-1])
@@ -292,16 +292,18 @@ def main() -> None:
                     "alternating with this one (e.g. a commit before a change)")
     ap.add_argument("--checkpoint", type=Path, metavar="FILE",
                     help="keep the compressed state in FILE and reuse it when it exists")
+    ap.add_argument("--timing", action="store_true", help="this code's runs time each stage "
+                    "of the step loop (pardem run --timing) and print the table per rank")
     ap.add_argument("--worker", help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.worker:
-        worker(args.worker, args.steps, args.eta == "on", args.scene.resolve())
+        worker(args.worker, args.steps, args.eta == "on", args.scene.resolve(), args.timing)
         return
     if args.startup:
         startup()
     throughput(args.steps, args.repeats, args.ranks, args.eta, args.against,
                args.scene.resolve(), args.at,
-               args.checkpoint.resolve() if args.checkpoint else None)
+               args.checkpoint.resolve() if args.checkpoint else None, args.timing)
 
 
 if __name__ == "__main__":

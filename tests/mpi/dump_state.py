@@ -2,7 +2,7 @@
 
     mpiexec -n P python -m mpi4py tests/mpi/dump_state.py SCENE STEPS OUT.npz [--restart CKPT]
         [--from CKPT] [--checkpoint-at STEP CKPT] [--grow-window] [--shared-limit DOUBLES] [--check-lists]
-        [--no-room] [--cut auto|sectors|RxA] [--balance-threshold F]
+        [--no-room] [--cut auto|sectors|RxA] [--balance-threshold F] [--timing]
 
 Rank 0 writes OUT.npz with every particle array and the springs (sorted by gid), plus the run's
 migration and rebuild counts and, summed over the ranks, the wall disks a rank does not move
@@ -19,7 +19,9 @@ takes away stores them in larger arrays (``Decomposition.exchange``) instead of 
 place; the number of such exchanges on a rank that received migrants is saved. ``--cut``: the
 decomposition (``Simulation(cut=...)``); the rings of the cut used are saved.
 ``--balance-threshold``: re-cut when the owned counts differ by more than this fraction
-(default 0.1; 0 re-cuts at nearly every check).
+(default 0.1; 0 re-cuts at nearly every check). ``--timing``: the step loop with its stage
+timers (``Simulation(timing=True)``); each rank's ``Clock.deep`` followed by its
+``Decomposition.wait`` is saved as a row of ``timing``.
 """
 
 import argparse
@@ -100,6 +102,7 @@ def main():
     ap.add_argument("--no-room", action="store_true")
     ap.add_argument("--cut", default="auto")
     ap.add_argument("--balance-threshold", type=float)
+    ap.add_argument("--timing", action="store_true")
     args = ap.parse_args()
     if args.shared_limit is not None:
         decomposition.SHARED_HALO_LIMIT = args.shared_limit
@@ -109,7 +112,7 @@ def main():
     if args.no_room:
         Rebuilder.rebuild = cut_to_rows_in_use(comm)
     sim = Simulation(load_scene(args.scene), restart=args.restart, comm=comm, cut=args.cut,
-                     branch=args.branch)
+                     branch=args.branch, timing=args.timing)
     if args.balance_threshold is not None:
         sim.decomp.balance_threshold = args.balance_threshold
     if args.grow_window and sim.decomp.window is not None:  # None: messages (oversubscribed)
@@ -132,6 +135,7 @@ def main():
     idle_walls = comm.allreduce(idle.stop - idle.start)
     idle_pairs = comm.allreduce(int(in_idle.sum()))
     regrown = comm.allreduce(REGROWN[0])
+    timing = np.array(comm.gather(np.append(sim.clock.deep, sim.decomp.wait), root=0))
     if comm.rank == 0:
         np.savez(args.out, **arrays, step=attrs["step"], migrated=migrated,
                  rebuilds=sim.n_rebuilds, exchanges=sim.decomp.n_exchanges,
@@ -139,7 +143,8 @@ def main():
                  rebalanced=sim.decomp.n_rebalanced,
                  idle_walls=idle_walls, idle_wall_pairs=idle_pairs,
                  shared_windows=sim.decomp.n_windows,
-                 shared_exchanges=sim.decomp.n_shared_exchanges, rings=sim.decomp.cut.rings)
+                 shared_exchanges=sim.decomp.n_shared_exchanges, rings=sim.decomp.cut.rings,
+                 timing=timing)
 
 
 if __name__ == "__main__":
