@@ -2,6 +2,7 @@
 of its scaling page are rendered from the committed measurements, the README's test count is
 pytest's, and the examples it points to are valid scenes."""
 
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -27,6 +28,15 @@ def test_scaling_tables_are_generated_from_the_committed_results():
     for page in scaling_tables.PAGES:
         assert page.read_text(encoding="utf-8") == scaling_tables.render(page=page), \
             f"{page.name}: run python run_scripts/benchmarks/scaling_tables.py"
+
+
+def test_the_scaling_page_is_a_design_page_without_commit_hashes():
+    """At most 250 lines, and no word that reads as a commit hash (7-40 hex digits with a
+    letter and a digit): the page describes the design and the measurements, git the history."""
+    for page in (ROOT / "docs").glob("*.md"):
+        words = re.findall(r"\b[0-9a-f]{7,40}\b", page.read_text(encoding="utf-8"))
+        assert not [w for w in words if re.search("[a-f]", w) and re.search("[0-9]", w)], page
+    assert len((ROOT / "docs" / "scaling.md").read_text(encoding="utf-8").splitlines()) <= 250
 
 
 def test_readme_counts_the_tests_pytest_collects():
