@@ -22,13 +22,15 @@ SLOT_KEYS = {
                            ("mu_r",)),
 }
 PARAMETER_UNITS = {"gamma_t": "kg/s", "k_r": "N/m", "mu_r": ""}
+RESTITUTIONS = {"restitution": ("normal_damping", "gamma_n"),
+                "tangential_restitution": ("tangential_damping", "gamma_t")}
+"""A restitution key -> its damping's [effects] switch and the coefficient it replaces."""
 
 
 def check_slots(c: dict, e: dict) -> None:
     """SceneError unless every switched-on slot has its parameters ([contact] c and [effects]
     e as dicts), and no slot's parameter is set while the slot is off."""
-    for name, switch in (("restitution", "normal_damping"),
-                         ("tangential_restitution", "tangential_damping")):
+    for name, (switch, _) in RESTITUTIONS.items():
         if c.get(name) is not None and not e[switch]:
             raise fail("[contact]", name, c[name], f"is set but [effects] {switch} is off; "
                        f"switch it on or remove {name}")
@@ -39,13 +41,13 @@ def check_slots(c: dict, e: dict) -> None:
     if e["tangential_friction"] and c["mu"] > 0 and c["k_t"] <= 0:
         raise fail("[contact]", "k_t", c["k_t"], "must be > 0 when [effects] "
                    "tangential_friction is on and mu > 0", "N/m")
+    replaced = {gamma for name, (_, gamma) in RESTITUTIONS.items() if c.get(name) is not None}
     for switch, (needs, why, positive, optional) in SLOT_KEYS.items():
         if e[switch]:
             if not e[needs]:
                 raise fail("[effects]", switch, True, f"needs [effects] {needs} = true ({why})")
             for name in positive:
-                if not c[name] > 0 and not (name == "gamma_t"
-                                            and c.get("tangential_restitution") is not None):
+                if not c[name] > 0 and name not in replaced:
                     raise fail("[contact]", name, c[name], f"must be > 0 when [effects] "
                                f"{switch} is on", PARAMETER_UNITS[name])
             continue
