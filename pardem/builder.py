@@ -36,7 +36,7 @@ from .core.neighbors import WALL_SKINS
 from .core.rebuild import Rebuilder
 from .core.state import Params, new_clock, new_pairs
 from .core.step import StepOptions, make_stepper
-from .core.timing import KICK, Timing
+from .core.timing import FIRST, Timing
 from .core.timestep import resolve_step
 from .input.placement import initial_configuration, rank_share
 from .input.scene import Scene, SceneError
@@ -186,7 +186,7 @@ class SimulationBuilder:
         the build count (benchmarks)."""
         for key in self.timers:
             self.timers[key] = 0.0
-        self.clock.deep[KICK:] = 0.0
+        self.clock.deep[FIRST:] = 0.0
         self.rebuilder.exchange_seconds = 0.0
         self.decomp.wait[:] = 0.0
         self.n_rebuilds = 0

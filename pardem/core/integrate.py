@@ -1,5 +1,6 @@
 """Velocity-Verlet half steps: the kick (velocities from forces, then bottom friction) and the
-drift (positions, the rings and their wall disks, the predicted velocities).
+drift (positions, the rings and their wall disks, the predicted velocities), fused with the
+opening kick and the previous step's closing kick into one pass (kick_drift).
 
 Stage: integration (inside the step loop, ``step.py``). Reads and writes the moving bodies'
 rows of ``Particles`` (the free particles this rank owns, then the wall disks near its sector)
@@ -18,10 +19,22 @@ from ..boundaries.walls import outer_radius, outer_ring_settled, place_wall_disk
 
 
 @nb.njit(**INLINE)
+def closing_velocity(vx, vy, dv, opts):
+    """A closing kick's velocity after bottom friction (when on), which removes dv = mu_b g dt
+    of speed and never reverses it: a disk at rest stays at rest, nothing divides by zero."""
+    if not opts.bottom_friction:
+        return vx, vy
+    speed = math.sqrt(vx * vx + vy * vy)
+    c = 1.0 - dv / speed  # inf/nan at rest: discarded by the select
+    rest = speed <= dv  # false for NaN, which must reach the watchdog
+    return (0.0 if rest else vx * c), (0.0 if rest else vy * c)
+
+
+@nb.njit(**INLINE)
 def kick(ps, n_owned, h, prm, opts, closing):
-    """Half kick of the moving particles. The closing kick of a step then applies bottom friction
-    as a velocity-space Coulomb friction: it removes mu_b g dt of speed and never reverses the
-    velocity, so a disk at rest stays at rest and nothing divides by zero.
+    """Half kick of the moving particles; a closing kick then applies bottom friction as a
+    velocity-space Coulomb friction (closing_velocity). The step loop calls it for the last
+    step of a call only: otherwise kick_drift does it.
 
     The (n, 2) arrays are read through flat views: numba indexes 2D arrays with run-time
     strides, which keeps LLVM from vectorising the loop; on flat views it does (AVX-512 square
@@ -31,12 +44,8 @@ def kick(ps, n_owned, h, prm, opts, closing):
     for i in range(n_owned):
         vx = v[2 * i] + h * f[2 * i] * inv_m[i]
         vy = v[2 * i + 1] + h * f[2 * i + 1] * inv_m[i]
-        if opts.bottom_friction and closing:
-            speed = math.sqrt(vx * vx + vy * vy)
-            c = 1.0 - dv / speed  # inf/nan at rest: discarded by the select
-            rest = speed <= dv  # false for NaN, which must reach the watchdog
-            vx = 0.0 if rest else vx * c
-            vy = 0.0 if rest else vy * c
+        if closing:
+            vx, vy = closing_velocity(vx, vy, dv, opts)
         v[2 * i] = vx
         v[2 * i + 1] = vy
     if opts.rotation:
@@ -44,15 +53,23 @@ def kick(ps, n_owned, h, prm, opts, closing):
             ps.omega[i] += h * ps.tau[i] * ps.inv_inertia[i]
 
 
+PEAK_LANES = 8  # partial maxima of kick_drift's peaks: independent chains, one vector
+
+
 @nb.njit(**INLINE)
-def drift(ps, clock, prm, opts, scratch):
-    """Move free bodies and walls to t + dt. Returns ``(bad, disp, v2)``: the index of a
-    particle that became non-finite or left the cell (-1: none), the largest displacement of a
-    free particle since the neighbour build plus the outer ring's, and the largest squared
+def kick_drift(ps, clock, prm, opts, peaks, close):
+    """Move free bodies and walls to t + dt in one pass over the free particles: the previous
+    step's closing kick when ``close`` (the step loop defers it while it goes on), the opening
+    half kick, the drift and the predicted velocities; then the walls. Each velocity gets the
+    same additions in the same order as kick(closing), kick, drift in turn: the same bits, one
+    pass over the particles' rows instead of three. Returns ``(bad, disp, v2)``: the index of
+    a particle that became non-finite or left the cell (-1: none), the largest displacement of
+    a free particle since the neighbour build plus the outer ring's, and the largest squared
     speed of any body (m^2/s^2). The wall disks' displacement is a function of time alone
-    (``wall_travel``). ``scratch``: a (2, n_owned) work array."""
+    (``wall_travel``). ``peaks``: a (2, PEAK_LANES) work array."""
     dt = prm.dt
     h = 0.5 * dt
+    dv = prm.mu_b_g * 2.0 * h  # as kick's
     n_owned = clock.n_owned[0]
     # a centre beyond a ring line overlaps that ring by more than a radius: it has left the cell
     # (free scenes: escape_radius = inf, nothing to leave)
@@ -61,39 +78,34 @@ def drift(ps, clock, prm, opts, scratch):
         hi2, lo2 = r_hi * r_hi, prm.rings.r_in * prm.rings.r_in
     else:
         hi2, lo2 = prm.escape_radius * prm.escape_radius, 0.0
-    # Flat views, selects and no reductions in the main loop, so that LLVM vectorises it (see
-    # kick): it stores each squared speed and displacement and counts the bad centres; a
-    # second, scalar loop takes the maxima.
-    x, v, f, vp, xr = (ps.x.reshape(-1), ps.v.reshape(-1), ps.f.reshape(-1),
-                       ps.v_pred.reshape(-1), ps.x_ref.reshape(-1))
+    # Flat views, selects and no reductions but a count in the main loop, so that LLVM
+    # vectorises it (see kick); it writes three arrays only: each more costs the vector loop
+    # a run-time alias check, and with two more (the squared speeds and displacements for the
+    # maxima) the fused loop ran at scalar speed. The maxima take a second loop.
+    x, v, f, vp = ps.x.reshape(-1), ps.v.reshape(-1), ps.f.reshape(-1), ps.v_pred.reshape(-1)
     inv_m = ps.inv_mass
-    v2, d2 = scratch[0], scratch[1]
     n_bad = 0
     for i in range(n_owned):
-        x0 = x[2 * i] + dt * v[2 * i]
-        x1 = x[2 * i + 1] + dt * v[2 * i + 1]
+        ax = h * f[2 * i] * inv_m[i]
+        ay = h * f[2 * i + 1] * inv_m[i]
+        vx = v[2 * i]
+        vy = v[2 * i + 1]
+        if close:
+            vx, vy = closing_velocity(vx + ax, vy + ay, dv, opts)
+        vx = vx + ax
+        vy = vy + ay
+        v[2 * i] = vx
+        v[2 * i + 1] = vy
+        x0 = x[2 * i] + dt * vx
+        x1 = x[2 * i + 1] + dt * vy
         x[2 * i] = x0
         x[2 * i + 1] = x1
-        if opts.predict:
-            vpx = v[2 * i] + h * f[2 * i] * inv_m[i]
-            vpy = v[2 * i + 1] + h * f[2 * i + 1] * inv_m[i]
-        else:
-            vpx = v[2 * i]
-            vpy = v[2 * i + 1]
-        vp[2 * i] = vpx
-        vp[2 * i + 1] = vpy
-        v2[i] = vpx * vpx + vpy * vpy
-        dx = x0 - xr[2 * i]
-        dy = x1 - xr[2 * i + 1]
-        d2[i] = dx * dx + dy * dy
+        vp[2 * i] = vx + ax if opts.predict else vx
+        vp[2 * i + 1] = vy + ay if opts.predict else vy
         r2 = x0 * x0 + x1 * x1
         n_bad += 0 if lo2 <= r2 <= hi2 else 1  # also counts NaN
-    max_d2 = 0.0
-    max_v2 = 0.0
+    max_v2, max_d2 = free_peaks(ps, n_owned, peaks)
     bad = -1
-    for i in range(n_owned):
-        max_v2 = max(max_v2, v2[i])
-        max_d2 = max(max_d2, d2[i])
     if n_bad > 0:  # rare: report the last bad index
         for i in range(n_owned):
             r2 = x[2 * i] * x[2 * i] + x[2 * i + 1] * x[2 * i + 1]
@@ -101,9 +113,12 @@ def drift(ps, clock, prm, opts, scratch):
                 bad = i
     if opts.rotation:
         for i in range(n_owned):
-            ps.theta[i] += dt * ps.omega[i]
-            ps.w_pred[i] = ps.omega[i] + (h * ps.tau[i] * ps.inv_inertia[i] if opts.predict
-                                          else 0.0)
+            b = h * ps.tau[i] * ps.inv_inertia[i]
+            w = ps.omega[i] + b if close else ps.omega[i]
+            w = w + b
+            ps.omega[i] = w
+            ps.theta[i] += dt * w
+            ps.w_pred[i] = w + (b if opts.predict else 0.0)
     clock.step[0] += 1
     clock.phase[0] = 1
     ring_move = 0.0
@@ -119,6 +134,37 @@ def drift(ps, clock, prm, opts, scratch):
             max_v2 = max(max_v2, v[2 * i] ** 2 + v[2 * i + 1] ** 2)
         ring_move = abs(outer_radius(t, prm.rings)[0] - clock.r_out_ref[0])
     return bad, math.sqrt(max_d2) + ring_move, max_v2
+
+
+@nb.njit(**INLINE)
+def free_peaks(ps, n_owned, peaks):
+    """(largest squared predicted speed, largest squared displacement since the neighbour
+    build) of the free particles, in PEAK_LANES independent running maxima (one chain of
+    dependent maxima cost twice as much): the maximum does not depend on the order, so the
+    bits are those of one chain. A NaN is not carried, but it also made a position NaN,
+    which kick_drift reports."""
+    x, vp, xr = ps.x.reshape(-1), ps.v_pred.reshape(-1), ps.x_ref.reshape(-1)
+    mv, md = peaks[0], peaks[1]
+    mv[:] = 0.0
+    md[:] = 0.0
+    n_lanes = n_owned - n_owned % PEAK_LANES
+    for i0 in range(0, n_lanes, PEAK_LANES):
+        for ln in range(PEAK_LANES):
+            i = i0 + ln
+            a = vp[2 * i] * vp[2 * i] + vp[2 * i + 1] * vp[2 * i + 1]
+            dx = x[2 * i] - xr[2 * i]
+            dy = x[2 * i + 1] - xr[2 * i + 1]
+            b = dx * dx + dy * dy
+            mv[ln] = a if a > mv[ln] else mv[ln]
+            md[ln] = b if b > md[ln] else md[ln]
+    for i in range(n_lanes, n_owned):
+        a = vp[2 * i] * vp[2 * i] + vp[2 * i + 1] * vp[2 * i + 1]
+        dx = x[2 * i] - xr[2 * i]
+        dy = x[2 * i + 1] - xr[2 * i + 1]
+        b = dx * dx + dy * dy
+        mv[0] = a if a > mv[0] else mv[0]
+        md[0] = b if b > md[0] else md[0]
+    return mv.max(), md.max()
 
 
 @nb.njit(**INLINE)

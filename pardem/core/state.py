@@ -28,7 +28,7 @@ import numpy as np
 from numba import literal_unroll
 
 from .jit import JIT
-from .timing import END, KICK
+from .timing import END, FIRST
 
 if TYPE_CHECKING:
     from ..contact.params import LawParams
@@ -146,7 +146,7 @@ class Clock(NamedTuple):
     deep (float array [4]): the first overlap beyond contact.overlap.MAX_OVERLAP on this rank,
     (t s, gid of i, gid of j or -1/-2 for the inner/outer ring surface, overlap over the
     smaller diameter); t < 0: none. The step loop stops every rank at the next step. Then
-    deep[timing.KICK:timing.END] (s, count): the stage timers of a step loop compiled with
+    deep[timing.FIRST:timing.END] (s, count): the stage timers of a step loop compiled with
     ``Timing(on=True)`` (``core/timing.py``; in this array so that the Clock's numba type, and
     with it the untimed loop's machine code, is the one it was before the timers).
     """
@@ -199,7 +199,7 @@ def new_clock(n_owned: int, n_local: int, r_out0: float) -> Clock:
         n_moving=np.array([n_local], np.int64),
         n_ghost=np.zeros(1, np.int64),
         r_out_ref=np.array([r_out0]), reach=np.zeros(1), disp=np.zeros(1),
-        step_ref=np.zeros(1, np.int64), deep=np.concatenate(([-1.0, 0.0, 0.0, 0.0], np.zeros(END - KICK))),
+        step_ref=np.zeros(1, np.int64), deep=np.concatenate(([-1.0, 0.0, 0.0, 0.0], np.zeros(END - FIRST))),
     )
 
 

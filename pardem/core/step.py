@@ -3,10 +3,11 @@
 Stage: integration. ``make_stepper(options)`` returns a ``Stepper`` of jitted functions that run
 many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
 
-    half kick   v += dt/2 f/m, w += dt/2 tau/I                           (integrate.kick)
+    half kick   v += dt/2 f/m, w += dt/2 tau/I
     drift       x += dt v, theta += dt w;  rings and wall disks moved to t + dt;
                 predict v(t+dt) = v + dt/2 f(t)/m for the velocity-dependent forces
-                                                                         (integrate.drift)
+                (both in one pass, integrate.kick_drift, with the previous step's closing
+                 kick when the loop went on from it)
     ghosts      under MPI: neighbours' boundary particles refreshed (x, v_pred, w_pred), and
                 every rank learns the global largest displacement and speed
                                                                     (parallel.refresh_ghosts)
@@ -16,7 +17,8 @@ many steps per Python call. One step (LAMMPS ``Verlet::iterate`` order):
      that displacement + the walls' travel + that distance > skin + wall_skin; the caller
      rebuilds the list and calls ``advance`` again, which resumes)
     forces      pair contacts in canonical pair order, then flat ring contacts (forces.py)
-    half kick   (then bottom friction)
+    half kick   (then bottom friction); deferred to the next step's pass over the particles
+                unless this step ends the call (integrate.kick)
 
 Time is ``step * dt`` (never accumulated). Reads/writes: Particles, Pairs, Clock; reads Params,
 the ghost-refresh plan (None on one rank: no MPI code is compiled in).
@@ -39,10 +41,10 @@ import numpy as np
 
 from ..contact.model import ContactOptions
 from .forces import contact_forces, new_work
-from .integrate import drift, kick, wall_travel
+from .integrate import PEAK_LANES, kick, kick_drift, wall_travel
 from .jit import JIT
 from .static import static
-from .timing import CLOSING, DRIFT, FORCES, KICK, REFRESH, STEPS, Timing, lap, stamp
+from .timing import CLOSING, DRIFT, FORCES, REFRESH, STEPS, Timing, lap, stamp
 from ..parallel.refresh import refresh_ghosts
 
 OK, NEED_REBUILD, BAD_PARTICLE, MPI_FAILED, TOO_DEEP = 0, 1, 2, 3, 4
@@ -88,7 +90,8 @@ def make_stepper(opts: StepOptions) -> Stepper:
         h = 0.5 * prm.dt
         n_owned = clock.n_owned[0]
         n_all = clock.n_local[0] + clock.n_ghost[0]
-        scratch = np.empty((2, n_owned))
+        peaks = np.empty((2, PEAK_LANES))
+        pending = False  # the last step's closing kick, left to the next kick_drift
         work = new_work(o, pairs.count[0])
         forces_only = clock.phase[0] == FORCES_ONLY
         if forces_only:  # synchronous velocities
@@ -100,10 +103,8 @@ def make_stepper(opts: StepOptions) -> Stepper:
             if timed:
                 t = stamp(tm)
             if clock.phase[0] == 0:
-                kick(ps, n_owned, h, prm, opts, False)
-                if timed:
-                    t = lap(tm, clock.deep, KICK, t)
-                bad, disp, v2 = drift(ps, clock, prm, opts, scratch)
+                bad, disp, v2 = kick_drift(ps, clock, prm, opts, peaks, pending)
+                pending = False
                 if timed:
                     t = lap(tm, clock.deep, DRIFT, t)
                 # ghosts to t + dt; every rank learns the global maxima (one rank: no-op), and
@@ -144,7 +145,10 @@ def make_stepper(opts: StepOptions) -> Stepper:
             if forces_only:
                 clock.phase[0] = 0
                 return OK, -1
-            kick(ps, n_owned, h, prm, opts, True)
+            if clock.step[0] < target:  # the loop goes on: the kick joins the next pass
+                pending = True
+            else:
+                kick(ps, n_owned, h, prm, opts, True)
             if timed:
                 lap(tm, clock.deep, CLOSING, t)
                 clock.deep[STEPS] += 1.0

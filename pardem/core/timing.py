@@ -8,8 +8,9 @@ same typed code as before the timers existed. On, each stage boundary reads the 
 clock (``clock_gettime``, no MPI: a serial run times itself too) and adds the stage's seconds
 to an accumulator:
 
-    Clock.deep[KICK], [DRIFT], [REFRESH] (all of the ghost refresh), [FORCES], [CLOSING]
-    (closing kick), [STEPS] (steps timed: the divisor of a per-step figure);
+    Clock.deep[DRIFT] (integrate.kick_drift: the kicks and the drift), [REFRESH] (all of
+    the ghost refresh), [FORCES], [CLOSING] (the closing kick of a call's last step; the
+    others are in DRIFT), [STEPS] (steps timed: the divisor of a per-step figure);
     Halo.wait[PACK], [UNPACK]: the refresh's parts besides the wait (Halo.wait[0], measured
     in every run).
 
@@ -25,8 +26,9 @@ from numba.extending import intrinsic, register_jitable
 
 from .static import static
 
-KICK, DRIFT, REFRESH, FORCES, CLOSING, STEPS = range(4, 10)  # Clock.deep[:4]: the overlap
-END = 10
+FIRST = 4  # Clock.deep[:FIRST]: the overlap guard's record
+DRIFT, REFRESH, FORCES, CLOSING, STEPS = range(FIRST, FIRST + 5)
+END = FIRST + 5
 PACK, UNPACK = 1, 2  # in Halo.wait
 
 

@@ -5,10 +5,10 @@ for states of different scenes or times, on one core.
                                                   [--rounds 5] [--reps 100]
 
 Each checkpoint is restored in one process. Per round and state: the force evaluation
-(``forces.contact_forces``), the two half kicks and the drift, each repeated inside one
-compiled loop (so that no Python call is timed; about ``--reps`` x 3000 / N repetitions, on
-caches warm with that stage's own arrays; the kicks with h = 0 and the drift undone, so the
-state stays), then steps of the real step loop (``Simulation.advance_steps``, its neighbour
+(``forces.contact_forces``), the two half kicks, and the pass that fuses them with the drift
+(``integrate.kick_drift``), each repeated inside one compiled loop (so that no Python call is
+timed; about ``--reps`` x 3000 / N repetitions, on caches warm with that stage's own arrays;
+the kicks with h = 0, the fused pass with zero forces and undone, so the state stays), then steps of the real step loop (``Simulation.advance_steps``, its neighbour
 builds subtracted). Prints ns per particle, median (range) over the rounds; the first round
 includes compiling the loops. Comparing the stages alone with the step tells what the loop
 as a whole adds (each stage finding its arrays evicted by the others).
@@ -28,7 +28,7 @@ import numpy as np  # noqa: E402
 from bench_order import parse_states  # noqa: E402
 
 from pardem.core.forces import contact_forces, new_work  # noqa: E402
-from pardem.core.integrate import drift, kick  # noqa: E402
+from pardem.core.integrate import PEAK_LANES, kick, kick_drift  # noqa: E402
 from pardem.core.jit import JIT  # noqa: E402
 
 LOOP = dict(JIT, cache=False)
@@ -48,16 +48,16 @@ def kicks_loop(ps, n, prm, opts, reps):
 
 
 @nb.njit(**LOOP)
-def drift_loop(ps, clock, prm, opts, scratch, reps):
+def drift_loop(ps, clock, prm, opts, peaks, reps):
     for _ in range(reps):
-        drift(ps, clock, prm, opts, scratch)
+        kick_drift(ps, clock, prm, opts, peaks, True)
 
 
 def round_times(sim, reps: int) -> dict[str, float]:
     """Seconds per particle of each stage alone and of a step, for one round."""
     ps, pairs, prm, opts, clock = sim.ps, sim.pairs, sim.prm, sim.options, sim.clock
     n, n_all = int(clock.n_owned[0]), int(clock.n_local[0])
-    work, scratch = new_work(opts.contact, int(pairs.count[0])), np.empty((2, n))
+    work, peaks = new_work(opts.contact, int(pairs.count[0])), np.empty((2, PEAK_LANES))
     out = {}
     t = time.perf_counter()
     forces_loop(ps, pairs, n_all, prm, sim.time, opts.contact, opts.rotation, opts.walls, work,
@@ -67,10 +67,13 @@ def round_times(sim, reps: int) -> dict[str, float]:
     kicks_loop(ps, n, prm, opts, reps)
     out["two kicks"] = (time.perf_counter() - t) / reps / n
     x, theta, step = ps.x.copy(), ps.theta.copy(), int(clock.step[0])
+    v, omega, f, tau = ps.v.copy(), ps.omega.copy(), ps.f.copy(), ps.tau.copy()
+    ps.f[:], ps.tau[:] = 0.0, 0.0  # the kicks add zeros: the speeds stay bounded
     t = time.perf_counter()
-    drift_loop(ps, clock, prm, opts, scratch, reps)
-    out["drift"] = (time.perf_counter() - t) / reps / n
+    drift_loop(ps, clock, prm, opts, peaks, reps)
+    out["kicks+drift"] = (time.perf_counter() - t) / reps / n
     ps.x[:], ps.theta[:], clock.step[0], clock.phase[0] = x, theta, step, 0
+    ps.v[:], ps.omega[:], ps.f[:], ps.tau[:] = v, omega, f, tau
     steps = max(50, reps * 2)
     sim.reset_timers()
     t = time.perf_counter()

@@ -56,8 +56,7 @@ TABLES: dict[str, list[tuple[str, tuple[str, ...]]]] = {
     ],
     "stages": [
         ("µs per step", ("{run}",)),
-        ("kick", ("{kick_us}",)),
-        ("drift", ("{drift_us}",)),
+        ("kicks + drift", ("{kick_drift_us}",)),
         ("refresh (wait, pack, unpack)",
          ("{refresh_us} ({refresh_wait_us}, {refresh_pack_us}, {refresh_unpack_us})",
           "{refresh_us} ({refresh_note})")),
