@@ -24,7 +24,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[2]
 PAGE = ROOT / "docs" / "scaling.md"
 VARIANTS_PAGE = ROOT / "docs" / "scaling_variants.md"
-PAGES = {PAGE: ["throughput", "stages", "memory_hierarchy", "memory", "rank_counts",
+PAGES = {PAGE: ["throughput", "vs_lammps", "stages", "memory_hierarchy", "memory", "rank_counts",
                 "machine_costs", "across_nodes"], VARIANTS_PAGE: ["variants"]}
 DATA = ROOT / "results" / "scaling"
 
@@ -53,6 +53,12 @@ TABLES: dict[str, list[tuple[str, tuple[str, ...]]]] = {
         ("ghosts / rank", ("{ghosts_per_rank}",)),
         ("builds / 1000 steps", ("{builds_per_1000_steps}",)),
         ("largest RSS per rank, MB, 1 / 2 ranks", ("{rss_one_rank_MB} / {rss_two_ranks_MB}",)),
+    ],
+    "vs_lammps": [
+        ("one core; LAMMPS: its settled packing, sheared", ("{state}",)),
+        ("pardem, M/s (median; range)", (_median_range("pardem", "_Mps"),)),
+        ("LAMMPS, M/s (median; range)", (_median_range("lammps", "_Mps"),)),
+        ("pardem / LAMMPS (per round)", ("{ratio} ({ratio_min}–{ratio_max})",)),
     ],
     "stages": [
         ("µs per step", ("{run}",)),
