@@ -55,7 +55,8 @@ TABLES: dict[str, list[tuple[str, tuple[str, ...]]]] = {
         ("largest RSS per rank, MB, 1 / 2 ranks", ("{rss_one_rank_MB} / {rss_two_ranks_MB}",)),
     ],
     "vs_lammps": [
-        ("one core; LAMMPS: its settled packing, sheared", ("{state}",)),
+        ("one core; LAMMPS (same law and dt, skin 0.5 mm against 0.74, no bottom friction): "
+         "its settled packing, sheared", ("{state}",)),
         ("pardem, M/s (median; range)", (_median_range("pardem", "_Mps"),)),
         ("LAMMPS, M/s (median; range)", (_median_range("lammps", "_Mps"),)),
         ("pardem / LAMMPS (per round)", ("{ratio} ({ratio_min}–{ratio_max})",)),
