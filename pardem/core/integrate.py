@@ -150,21 +150,23 @@ def free_peaks(ps, n_owned, peaks):
     n_lanes = n_owned - n_owned % PEAK_LANES
     for i0 in range(0, n_lanes, PEAK_LANES):
         for ln in range(PEAK_LANES):
-            i = i0 + ln
-            a = vp[2 * i] * vp[2 * i] + vp[2 * i + 1] * vp[2 * i + 1]
-            dx = x[2 * i] - xr[2 * i]
-            dy = x[2 * i + 1] - xr[2 * i + 1]
-            b = dx * dx + dy * dy
+            a, b = speed_and_move(x, vp, xr, i0 + ln)
             mv[ln] = a if a > mv[ln] else mv[ln]
             md[ln] = b if b > md[ln] else md[ln]
     for i in range(n_lanes, n_owned):
-        a = vp[2 * i] * vp[2 * i] + vp[2 * i + 1] * vp[2 * i + 1]
-        dx = x[2 * i] - xr[2 * i]
-        dy = x[2 * i + 1] - xr[2 * i + 1]
-        b = dx * dx + dy * dy
+        a, b = speed_and_move(x, vp, xr, i)
         mv[0] = a if a > mv[0] else mv[0]
         md[0] = b if b > md[0] else md[0]
     return mv.max(), md.max()
+
+
+@nb.njit(**INLINE)
+def speed_and_move(x, vp, xr, i):
+    """(squared predicted speed, squared displacement since the build) of particle i, from the
+    flat views of x, v_pred and x_ref."""
+    dx = x[2 * i] - xr[2 * i]
+    dy = x[2 * i + 1] - xr[2 * i + 1]
+    return vp[2 * i] * vp[2 * i] + vp[2 * i + 1] * vp[2 * i + 1], dx * dx + dy * dy
 
 
 @nb.njit(**INLINE)
