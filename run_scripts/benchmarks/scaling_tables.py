@@ -60,6 +60,9 @@ TABLES: dict[str, list[tuple[str, tuple[str, ...]]]] = {
         ("pardem, M/s (median; range)", (_median_range("pardem", "_Mps"),)),
         ("LAMMPS, M/s (median; range)", (_median_range("lammps", "_Mps"),)),
         ("pardem / LAMMPS (per round)", ("{ratio} ({ratio_min}–{ratio_max})",)),
+        ("bare loop, M/s (median; range)", (_median_range("bare", "_Mps"),)),
+        ("pardem / bare loop (per round)", ("{vs_bare} ({vs_bare_min}–{vs_bare_max})",)),
+        ("bare loop / LAMMPS", ("{bare_vs_lammps}",)),
     ],
     "stages": [
         ("µs per step", ("{run}",)),

@@ -12,17 +12,19 @@ seconds (``--checkpoint``: made once if missing; 2.5 s, just after the compressi
 steady shear is B's state at 239 s, the checkpoint a finished ``pardem run`` of B leaves, with
 ``--scene`` its scene.toml). LAMMPS times ``--steps`` steps after 200
 warm-up steps (its second ``Loop time``); pardem the same number after two neighbour builds.
-Prints each run's flow-particle-steps/s, the medians, and pardem over LAMMPS per round with the
-median and the spread. LAMMPS runs without bottom friction (``--bfric``: with it, as atom-style
+Each round also runs ``vs_bare_loop.py``'s bare numba loop of the same law on pardem's fixed
+pair list (the yardstick of a plain time step on this machine; its docstring says what it
+leaves out). Prints each run's flow-particle-steps/s, the medians, and per round pardem over
+LAMMPS, pardem over the bare loop and the bare loop over LAMMPS, with medians and spreads. LAMMPS runs without bottom friction (``--bfric``: with it, as atom-style
 variables that cost LAMMPS about 80 %); pardem always has it. What else differs: LAMMPS's
 packing is its own settled one, not the ring's compression (see the deck's README).
 
-About 30 s per round on this machine (LAMMPS ~4 s per 10,000 steps, pardem ~1 s plus start-up).
+About 40 s per round on this machine (LAMMPS ~4 s per 10,000 steps, pardem and the bare loop
+~1 s each plus start-up).
 """
 
 from __future__ import annotations
 
-import argparse
 import os
 import re
 import statistics
@@ -31,7 +33,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-from bench import ROOT, SCENE, _worker_run, compress
+from bench import ROOT, _worker_run, compress
+from vs_bare_loop import bare_run, one_core_parser
 
 DECK = ROOT.parent / "shared" / "reference" / "lammps"
 N_FLOW = 2939  # the deck's flow disks (types 1 and 2), as couette_B's
@@ -53,14 +56,7 @@ def lammps_rate(lmp: str, steps: int, bfric: bool, log: Path) -> float:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--repeats", type=int, default=5)
-    ap.add_argument("--steps", type=int, default=10000)
-    ap.add_argument("--at", type=float, default=2.5, help="s: pardem's state (default: "
-                    "just after the compression)")
-    ap.add_argument("--scene", type=Path, default=SCENE, help="pardem's scene (default B)")
-    ap.add_argument("--checkpoint", type=Path, metavar="FILE",
-                    help="pardem's state at --at; made if missing")
+    ap = one_core_parser(__doc__)
     ap.add_argument("--lmp", default="lmp", help="the LAMMPS binary")
     ap.add_argument("--bfric", action="store_true", help="LAMMPS with bottom friction too")
     args = ap.parse_args()
@@ -72,22 +68,28 @@ def main() -> None:
         ckpt = args.checkpoint or Path(tmp) / "compressed.h5"
         if not ckpt.exists():
             compress(ckpt, args.scene, args.at)
-        ours, theirs = [], []
+        ours, theirs, bare = [], [], []
         for k in range(args.repeats):
             theirs.append(lammps_rate(args.lmp, args.steps, args.bfric, Path(tmp) / "log.lammps"))
+            bare.append(bare_run(ckpt, args.steps, args.scene.resolve(), env)["rate"])
             res = _worker_run(mpiexec, ROOT, ckpt, args.steps, False, 1, env,
                               args.scene.resolve())
             ours.append(res["n_free"] * args.steps / res["wall"])
-            print(f"round {k + 1}: LAMMPS {theirs[-1] / 1e6:.2f} M, pardem {ours[-1] / 1e6:.2f} M "
-                  f"flow-particle-steps/s: {ours[-1] / theirs[-1]:.2f}x", flush=True)
-    per_round = [a / b for a, b in zip(ours, theirs)]
-    print(f"one core, {args.steps} steps, {args.repeats} rounds: pardem median "
-          f"{statistics.median(ours) / 1e6:.2f} M ({min(ours) / 1e6:.2f}-{max(ours) / 1e6:.2f}), "
-          f"LAMMPS{' with bottom friction' if args.bfric else ''} median "
-          f"{statistics.median(theirs) / 1e6:.2f} M ({min(theirs) / 1e6:.2f}-"
-          f"{max(theirs) / 1e6:.2f}); pardem / LAMMPS {statistics.median(ours) / statistics.median(theirs):.2f} "
-          f"(ratio of the medians), per round median {statistics.median(per_round):.2f}, spread "
-          f"{min(per_round):.2f}-{max(per_round):.2f}")
+            print(f"round {k + 1}: LAMMPS {theirs[-1] / 1e6:.2f} M, bare loop {bare[-1] / 1e6:.2f} "
+                  f"M, pardem {ours[-1] / 1e6:.2f} M flow-particle-steps/s: pardem / LAMMPS "
+                  f"{ours[-1] / theirs[-1]:.2f}, pardem / bare {ours[-1] / bare[-1]:.3f}",
+                  flush=True)
+    print(f"one core, {args.steps} steps, {args.repeats} rounds (medians, range):")
+    lammps = f"LAMMPS{' with bottom friction' if args.bfric else ''}"
+    for name, r in (("pardem", ours), (lammps, theirs), ("bare loop", bare)):
+        print(f"  {name}: {statistics.median(r) / 1e6:.2f} M ({min(r) / 1e6:.2f}-"
+              f"{max(r) / 1e6:.2f})")
+    for name, a, b in (("pardem / LAMMPS", ours, theirs), ("pardem / bare loop", ours, bare),
+                       ("bare loop / LAMMPS", bare, theirs)):
+        per_round = [x / y for x, y in zip(a, b)]
+        print(f"  {name}: {statistics.median(a) / statistics.median(b):.3f} (ratio of the "
+              f"medians), per round median {statistics.median(per_round):.3f}, spread "
+              f"{min(per_round):.3f}-{max(per_round):.3f}")
 
 
 if __name__ == "__main__":
