@@ -4,12 +4,14 @@ Every rank calls the same kernels, so with a cold numba cache every rank would c
 them, one after another, in the same order. Instead:
 - ``compile_first``, before the annulus is cut: rank 0 compiles the cut's owner test while
   rank 1 compiles the refresh plan's buffers.
-- ``compile_ahead``, before the first exchange: rank 0 compiles the migration
+- ``compile_ahead``, before the first exchange: rank 0 compiles the selecting pair loop and
+  the ring contacts (``forces.selected_pairs``, ``ring_contacts``), the migration
   (``parallel.exchange``'s ``send_rows``, ``receive_rows`` and ``peer_offsets``), then the
   ring sums of in-situ averaging; rank 1 compiles the progress line's diagnostics, the
   ring-contact and exchange tests (``cut.largest_move``), the two kernels the migration calls
-  last (its refresh plan, which rank 0 then finds in the cache, and the list build), the force
-  loop and the ring contacts (``forces``), the step loop around them
+  last (its refresh plan, which rank 0 then finds in the cache, and the list build), the pair
+  loop over every pair (``forces.every_pair``, the largest kernel), the force call around the
+  loops (whose other kernels it then finds in the cache), the step loop around it
   (``step.make_stepper``'s ``advance``, with the ghost refresh it calls), and the touching-pair
   test of the contact tables.
 After a barrier each rank loads the other's from numba's disk cache when it first calls them;
@@ -27,7 +29,7 @@ import numpy as np
 from numba.core import types
 
 from .contact.history import NO_HISTORY
-from .core.forces import ForceWork, contact_forces
+from .core.forces import ForceWork, contact_forces, every_pair, selected_pairs
 from .core.neighbors import build_lists
 from .parallel import barrier
 from .boundaries.ring_forces import ring_contacts
@@ -88,13 +90,15 @@ def _groups(sim, history) -> list[list]:
     after_migration, early, late = _first_step(sim, state, f8)
     work = nb.typeof(ForceWork(np.zeros(1), np.zeros((2, 1), np.int32), np.zeros(2, np.int64),
                                np.zeros(3)))
+    rows, deep = nb.typeof(np.zeros(1)), nb.typeof(np.zeros(3))
+    forces = [(selected_pairs, state + (nb.typeof(prm), f8, o, rotation, work, record)),
+              (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record, deep))]
     return [
-        _migration(tuple(nb.typeof(a) for a in exchange)) + after_migration,
+        forces + _migration(tuple(nb.typeof(a) for a in exchange)) + after_migration,
         early + [(_refresh_plan, plan), (build_lists, lists),
+         (every_pair, state + (nb.typeof(prm), f8, o, rotation, rows, record, record, deep)),
          (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
                                    work, record)),
-         (ring_contacts, state + (nb.typeof(prm), f8, f8, o, rotation, record,
-                                  nb.typeof(np.zeros(3)))),
          (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))]
         + late,
     ]

@@ -245,7 +245,8 @@ def test_kernels_compiled_ahead_have_the_signatures_of_their_calls(tmp_path):
     done = run_mpi([str(MPI_DIR / "compile_ahead_check.py"), str(scene)], 2)
     every = json.loads(done.stdout.strip().splitlines()[-1])
     assert len(every) == 2 and {
-        "send_rows", "receive_rows", "peer_offsets", "contact_forces", "accumulate",
+        "send_rows", "receive_rows", "peer_offsets", "contact_forces", "every_pair",
+        "selected_pairs", "ring_contacts", "accumulate",
         "touching_pairs", "touching_rings", "kinetic_energy", "max_overlap_ratio",
         "largest_move", "owners", "halo_buffers"} <= set(every[1]["versions"])
     assert every[0]["ahead"] and every[1]["ahead"]

@@ -112,13 +112,13 @@ def contact_forces(ps, pairs, n_loc, prm, t, reach, o, rotation, walls, work, re
         rows[rows.size - 1] = selected_pairs(ps, pairs, prm, reach, o, rotation, work, record)
     else:
         work.n_live[0] = -1  # every pair's history written: the next selection zeroes all
-        if calls >= RECHECK:
-            rows[rows.size - 1] = every_pair(ps, pairs, prm, reach, o, rotation, rows, record,
-                                             True, work.deep)
-            rows[rows.size - 2] = 0.0
-        else:
-            every_pair(ps, pairs, prm, reach, o, rotation, rows, record, False, work.deep)
-            rows[rows.size - 2] = calls + 1.0
+        # a run-time flag, not two literal calls: each literal is a compile of its own, and
+        # every_pair is the largest kernel (6.4 s of a cold start on this machine)
+        measure = calls >= RECHECK
+        fraction = every_pair(ps, pairs, prm, reach, o, rotation, rows, record, measure,
+                              work.deep)
+        rows[rows.size - 1] = fraction if measure else rows[rows.size - 1]
+        rows[rows.size - 2] = 0.0 if measure else calls + 1.0
     if walls:
         ring_contacts(ps, pairs, prm, t, reach, o, rotation, record, work.deep)
 
