@@ -273,7 +273,7 @@ def startup() -> None:
         for label in ("cold (empty numba cache)", "warm (second process)"):
             t0 = time.perf_counter()
             subprocess.run([str(exe), "run", str(scene), "--out", str(Path(tmp) / "out"),
-                            "--end", "0", "--quiet"], check=True, env=env,
+                            "--end", "0", "--quiet", "--overwrite"], check=True, env=env,
                            stderr=subprocess.DEVNULL)
             print(f"start-up {label}: {time.perf_counter() - t0:.2f} s "
                   "(process start to end of a 0-step run)")
