@@ -4,7 +4,8 @@
                                                   [--scene FILE] [--checkpoint FILE]
 
 The bare loop is the yardstick of what a plain numba time step of this law costs on this
-machine: the fewest operations a step of the physics needs, with none of a simulator's duties.
+machine: the physics of a step written as one would first write it (a loop per stage, the
+law inline in the pair loop, pardem's compile options), with none of a simulator's duties.
 It starts from the same state as pardem's timed run (the checkpoint at ``--at`` seconds, two
 neighbour builds later) and keeps pardem's pair list of that moment fixed (its pairs within
 the skin, with their tangential springs). One step:
