@@ -96,7 +96,8 @@ def _groups(sim, history) -> list[list]:
     return [
         forces + _migration(tuple(nb.typeof(a) for a in exchange)) + after_migration,
         early + [(_refresh_plan, plan), (build_lists, lists),
-         (every_pair, state + (nb.typeof(prm), f8, o, rotation, rows, record, record, deep)),
+         (every_pair, state + (nb.typeof(prm), f8, o, rotation, rows, record, types.boolean,
+                               deep)),
          (contact_forces, state + (types.int64, nb.typeof(prm), f8, f8, o, rotation, walls,
                                    work, record)),
          (sim.stepper.advance, state + tuple(nb.typeof(a) for a in (sim.clock, prm, halo, 0)))]

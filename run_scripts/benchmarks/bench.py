@@ -96,6 +96,14 @@ def compress_in(tree: Path, ckpt: Path, env: dict, scene: Path = SCENE, at: floa
                    check=True, env=dict(env, PYTHONPATH=str(tree)))
 
 
+def past_two_builds(run) -> None:
+    """Advance ``run`` (a Simulation) past two more neighbour builds: compiled code loaded and
+    caches warm, the builds' code included. Timed runs start from there."""
+    builds = run.n_rebuilds
+    while run.n_rebuilds < builds + 2:
+        run.advance_steps(50)
+
+
 def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE, timing: bool = False) -> None:
     """One timed run (under mpiexec): prints a JSON line on rank 0. ``timing``: the step loop
     with its per-stage timers (``pardem run --timing``), their table in the line."""
@@ -111,10 +119,7 @@ def worker(ckpt: str, steps: int, eta: bool, scene: Path = SCENE, timing: bool =
                      **extra)
     setup = time.perf_counter() - t0
     assert run.contact.eta == eta
-    # compiled code loaded and caches warm, the builds' code included
-    builds = run.n_rebuilds
-    while run.n_rebuilds < builds + 2:
-        run.advance_steps(50)
+    past_two_builds(run)
     run.reset_timers()
     exchanges = run.decomp.n_exchanges
     comm.Barrier()

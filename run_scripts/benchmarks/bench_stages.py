@@ -8,8 +8,8 @@ Each checkpoint is restored in one process. Per round and state: the force evalu
 (``forces.contact_forces``), the two half kicks, and the pass that fuses them with the drift
 (``integrate.kick_drift``), each repeated inside one compiled loop (so that no Python call is
 timed; about ``--reps`` x 3000 / N repetitions, on caches warm with that stage's own arrays;
-the kicks with h = 0, the fused pass with zero forces and undone, so the state stays), then steps of the real step loop (``Simulation.advance_steps``, its neighbour
-builds subtracted). Prints ns per particle, median (range) over the rounds; the first round
+the kicks with h = 0, the fused pass with zero forces and undone, so the state stays), then
+steps of the real step loop (``Simulation.advance_steps``, its neighbour builds subtracted). Prints ns per particle, median (range) over the rounds; the first round
 includes compiling the loops. Comparing the stages alone with the step tells what the loop
 as a whole adds (each stage finding its arrays evicted by the others).
 """

@@ -44,7 +44,7 @@ from pathlib import Path
 import numba as nb
 import numpy as np
 
-from bench import ROOT, SCENE, _worker_run, compress, scene_of
+from bench import ROOT, SCENE, _worker_run, compress, past_two_builds, scene_of
 
 JIT = dict(cache=True, error_model="numpy")
 CHUNK = 1000  # steps the bare loop runs from the start state before it starts again
@@ -128,9 +128,7 @@ def bare_worker(ckpt: str, steps: int, scene: Path) -> None:
     from pardem.simulation import Simulation
 
     run = Simulation(scene_of(scene, False), restart=ckpt)
-    builds = run.n_rebuilds
-    while run.n_rebuilds < builds + 2:  # the state pardem's worker starts timing from
-        run.advance_steps(50)
+    past_two_builds(run)  # the state pardem's worker starts timing from
     ps, pairs, prm = run.ps, run.pairs, run.prm
     n = run.clock.n_local[0]
     m = pairs.count[0]
@@ -142,17 +140,19 @@ def bare_worker(ckpt: str, steps: int, scene: Path) -> None:
                   hist=np.ascontiguousarray(pairs.hist[:m, -2:]))
     law = prm.law
     params = (prm.dt, law.k_n, law.gamma_n, law.k_t, law.mu, prm.mu_b_g)
-    warm = {k: a.copy() for k, a in arrays.items()}
-    bare_steps(*warm.values(), params, 200)  # compiled (or loaded) and caches warm
+    def fresh() -> list:  # the start state, copied
+        return [a.copy() for a in arrays.values()]
+
+    bare_steps(*fresh(), params, 200)  # compiled (or loaded) and caches warm
     # without the flat ring and the rings' motion the packing relaxes (a quarter fewer
     # touching pairs after 10,000 steps of B in steady shear), which would flatter the loop:
     # it runs in chunks of CHUNK steps, each from the start state again (copied untimed)
-    start = bare_steps(*{k: a.copy() for k, a in arrays.items()}.values(), params, 1)
+    start = bare_steps(*fresh(), params, 1)
     wall, end, left = 0.0, 0, steps
     while left > 0:
-        state = {k: a.copy() for k, a in arrays.items()}
+        state = fresh()
         t0 = time.perf_counter()
-        end = bare_steps(*state.values(), params, min(CHUNK, left))
+        end = bare_steps(*state, params, min(CHUNK, left))
         wall += time.perf_counter() - t0
         left -= CHUNK
     print(json.dumps({"wall": wall, "n_free": int(arrays["free"].size), "pairs": int(m),
@@ -207,13 +207,21 @@ def main() -> None:
                   f"{res['touching_start']:.3f} -> {res['touching_end']:.3f} of "
                   f"{res['pairs']}), pardem {ours[-1] / 1e6:.2f} M flow-particle-steps/s: "
                   f"{ours[-1] / bare[-1]:.3f}", flush=True)
-    per_round = [a / b for a, b in zip(ours, bare)]
-    print(f"one core, {args.steps} steps, {args.repeats} rounds: pardem median "
-          f"{statistics.median(ours) / 1e6:.2f} M ({min(ours) / 1e6:.2f}-{max(ours) / 1e6:.2f}), "
-          f"bare loop median {statistics.median(bare) / 1e6:.2f} M ({min(bare) / 1e6:.2f}-"
-          f"{max(bare) / 1e6:.2f}); pardem / bare {statistics.median(ours) / statistics.median(bare):.3f} "
-          f"(ratio of the medians), per round median {statistics.median(per_round):.3f}, "
-          f"spread {min(per_round):.3f}-{max(per_round):.3f}")
+    print(f"one core, {args.steps} steps, {args.repeats} rounds (medians, range):")
+    summary({"pardem": ours, "bare loop": bare}, [("pardem", "bare loop")])
+
+
+def summary(rates: dict[str, list[float]], ratios: list[tuple[str, str]]) -> None:
+    """Print each code's median rate (M flow-particle-steps/s) with its range, then each ratio
+    (a, b) of ``ratios``: a over b, as the ratio of the medians and per round."""
+    for name, r in rates.items():
+        print(f"  {name}: {statistics.median(r) / 1e6:.2f} M ({min(r) / 1e6:.2f}-"
+              f"{max(r) / 1e6:.2f})")
+    for a, b in ratios:
+        per_round = [x / y for x, y in zip(rates[a], rates[b])]
+        print(f"  {a} / {b}: {statistics.median(rates[a]) / statistics.median(rates[b]):.3f} "
+              f"(ratio of the medians), per round median {statistics.median(per_round):.3f}, "
+              f"spread {min(per_round):.3f}-{max(per_round):.3f}")
 
 
 if __name__ == "__main__":

@@ -39,7 +39,7 @@ import tempfile
 from pathlib import Path
 
 from bench import ROOT, _worker_run, compress
-from vs_bare_loop import bare_run, one_core_parser
+from vs_bare_loop import bare_run, one_core_parser, summary
 
 DECK = ROOT.parent / "shared" / "reference" / "lammps"
 N_FLOW = 2939  # the deck's flow disks (types 1 and 2), as couette_B's
@@ -120,16 +120,8 @@ def main() -> None:
                   flush=True)
     print(f"one core, {args.steps} steps, {args.repeats} rounds (medians, range):")
     lammps = f"LAMMPS{' with bottom friction' if args.bfric else ''}"
-    for name, r in (("pardem", ours), (lammps, theirs), ("bare loop", bare)):
-        print(f"  {name}: {statistics.median(r) / 1e6:.2f} M ({min(r) / 1e6:.2f}-"
-              f"{max(r) / 1e6:.2f})")
-    for name, a, b in (("pardem / LAMMPS", ours, theirs), ("pardem / bare loop", ours, bare),
-                       ("bare loop / LAMMPS", bare, theirs)):
-        per_round = [x / y for x, y in zip(a, b)]
-        print(f"  {name}: {statistics.median(a) / statistics.median(b):.3f} (ratio of the "
-              f"medians), per round median {statistics.median(per_round):.3f}, spread "
-              f"{min(per_round):.3f}-{max(per_round):.3f}")
-
+    summary({"pardem": ours, lammps: theirs, "bare loop": bare},
+            [("pardem", lammps), ("pardem", "bare loop"), ("bare loop", lammps)])
 
 if __name__ == "__main__":
     main()
