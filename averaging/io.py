@@ -14,6 +14,7 @@ Stage: averaging output (rank 0). Every file is written under a temporary name a
 
 from __future__ import annotations
 
+import contextlib
 import os
 from pathlib import Path
 
@@ -116,9 +117,42 @@ def _write_h5(tmp: Path, avg, f: dict, sums: np.ndarray) -> None:
         h5["inner_torque"].attrs["unit"] = "N m"
 
 
+RINGS_MEMBERS = ("fields/r", "fields/r_tilde", "sums", "times")
+"""What every reader of rings.h5 needs: the ring radii, the sums of every sample and their times
+(``_write_h5`` writes them all, so a file without one is damaged or not pardem's)."""
+
+
+class RingsFileError(ValueError):
+    """A rings.h5 that cannot be read, with its path and what is wrong with it."""
+
+
+@contextlib.contextmanager
+def open_rings(path: str | Path):
+    """The rings.h5 at ``path`` open for reading, once it holds ``RINGS_MEMBERS``: else
+    RingsFileError naming the file and what it lacks, or why it does not open as HDF5, where
+    h5py's KeyError and OSError name neither (a damaged or partly copied file, another
+    program's)."""
+    try:
+        h5 = h5py.File(path, "r")
+    except FileNotFoundError:
+        raise
+    except OSError as e:
+        raise RingsFileError(f"{path}: not readable as HDF5 ({e}): a damaged or partly copied "
+                             "rings.h5? `pardem average RUN_DIR` writes it anew from the "
+                             "snapshots") from None
+    with h5:
+        missing = [m for m in RINGS_MEMBERS if m not in h5]
+        if missing:
+            raise RingsFileError(f"{path}: damaged or not pardem's ring averages: no "
+                                 f"{', '.join(missing)} (a pardem rings.h5 holds "
+                                 f"{', '.join(RINGS_MEMBERS)}); `pardem average RUN_DIR` "
+                                 "writes it anew from the snapshots")
+        yield h5
+
+
 def read_rings(run_dir: str | Path) -> dict[str, np.ndarray]:
     """Fields (with ``_err`` standard errors) from DIR/rings.h5, plus ``times`` and ``sums``."""
-    with h5py.File(Path(run_dir) / "rings.h5", "r") as h5:
+    with open_rings(Path(run_dir) / "rings.h5") as h5:
         out = {k: v[()] for k, v in h5["fields"].items()}
         out["times"] = h5["times"][()]
         out["sums"] = h5["sums"][()]

@@ -2,7 +2,7 @@
 
 Stage: averaging output. One quad cell per ring and angular segment (the fields are axisymmetric,
 so every segment of a ring carries the ring's values; the segments only give ParaView a surface
-to colour). Cell data: every per-ring field of ``RingAverager.fields`` (with its ``_err``), the
+to colour: 120 per ring, fewer for thousands of rings, ``segments_for``). Cell data: every per-ring field of ``RingAverager.fields`` (with its ``_err``), the
 tensors F, sigma, eps as 3x3 components in the polar frame (r, phi, z; rows and columns in that
 order, z entries zero), and ``velocity``, the mean velocity as a Cartesian vector at the cell
 centre (for arrows). Written under a temporary name and renamed.
@@ -18,6 +18,19 @@ import meshio
 import numpy as np
 
 SEGMENTS = 120  # 3 degrees: the chord deviates from the arc by < 0.04 % of the radius
+MESH_CELLS = 200_000
+"""Cells the mesh may have before its rings get fewer segments (at least ``MIN_SEGMENTS``):
+every cell repeats its ring's ~110 values, and meshio held ~2.4 kB per cell while writing
+(10,000 rings of 120 segments: 2.8 GB), far beyond the run itself."""
+MIN_SEGMENTS = 3
+VTU_BYTES_PER_CELL = 2400
+"""Peak bytes per cell while ``write_rings_vtu`` runs (measured, for memory estimates)."""
+
+
+def segments_for(n_rings: int) -> int:
+    """Angular segments per ring: ``SEGMENTS``, fewer where the rings are so many that the
+    mesh would pass ``MESH_CELLS``."""
+    return max(MIN_SEGMENTS, min(SEGMENTS, MESH_CELLS // max(n_rings, 1)))
 TENSORS = ("F", "sigma", "eps")
 
 
@@ -36,8 +49,9 @@ def annulus(r_edges: np.ndarray, segments: int = SEGMENTS) -> tuple[np.ndarray, 
 
 
 def write_rings_vtu(path: str | Path, fields: dict[str, np.ndarray], r_edges: np.ndarray,
-                    segments: int = SEGMENTS) -> None:
+                    segments: int | None = None) -> None:
     path = Path(path)
+    segments = segments_for(r_edges.size - 1) if segments is None else segments
     points, quads = annulus(r_edges, segments)
     n_rings = r_edges.size - 1
     ring = np.repeat(np.arange(n_rings), segments)

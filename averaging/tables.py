@@ -13,12 +13,11 @@ from __future__ import annotations
 
 from pathlib import Path
 
-import h5py
 import numpy as np
 
 from .boundary import LOAD_DESCRIPTIONS
 from .fields import FIELDS, group_fields
-from .io import column_unit, ring_load_samples
+from .io import RingsFileError, column_unit, open_rings, ring_load_samples
 
 DESCRIPTIONS = {"r": "ring centre radius", "r_tilde": "(r - R_i) / d_ref", **LOAD_DESCRIPTIONS,
                 "time": "mean time of the samples averaged",
@@ -36,7 +35,7 @@ def ring_dataset(run_dir: str | Path, every: int | None = None):
     ``description`` on every variable, the averaging layout on the dataset."""
     xr = _need("xarray")
     path = Path(run_dir) / "rings.h5"
-    with h5py.File(path, "r") as h5:
+    with open_rings(path) as h5:
         stored = {k: v[()] for k, v in h5["fields"].items()}
         layout = {k: (v.item() if hasattr(v, "item") else v) for k, v in h5.attrs.items()}
         sums, times = h5["sums"][()], h5["times"][()]
@@ -51,6 +50,10 @@ def ring_dataset(run_dir: str | Path, every: int | None = None):
         if "k_n_2d" not in layout:
             raise ValueError(f"{path} holds no normalisations (written by an older pardem): "
                              "`pardem average RUN_DIR` writes them")
+        lost = [k for k in ("ring_width", "height", "wall_speed") if k not in layout]
+        if lost:  # written together with k_n_2d (io._write_h5): the file was changed since
+            raise RingsFileError(f"{path}: damaged: no attribute {', '.join(lost)} beside "
+                                 "k_n_2d; `pardem average RUN_DIR` writes it anew")
         groups = [np.arange(k, min(k + int(every), len(times)))
                   for k in range(0, len(times), int(every))]
         args = (r, layout["ring_width"], layout["height"], r_tilde, layout["k_n_2d"],

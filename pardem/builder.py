@@ -38,7 +38,7 @@ from .core.state import Params, new_clock, new_pairs
 from .core.step import StepOptions, make_stepper
 from .core.timing import FIRST, Timing
 from .core.timestep import resolve_step
-from .input.placement import initial_configuration, rank_share
+from .input.placement import PLACEMENTS, initial_configuration, rank_share
 from .input.scene import Scene, SceneError
 from .output.averages import make_averager, resume
 from .output.branch import branch_head
@@ -95,6 +95,8 @@ class SimulationBuilder:
         self.decomp = decomposition(comm, 2.0 * float(init.radius[:init.n_free].max()) + skin,
                                     g.inner_radius if g else 0.0,
                                     margin=GHOST_MARGIN_SKINS * skin, cut=cut)
+        if init.placement == "inserted" and restart is None and branch is None:
+            self._say(f"note: the {init.n_free} free disks were {PLACEMENTS['inserted']}")
         compile_first(self.decomp)  # parallel runs: the kernels the cut needs, shared
         self.clock = new_clock(init.n_free, init.radius.size, self.prm.rings.r_out0)
         # the in-situ averager ([averaging] table; None without), kept across run() calls
@@ -113,7 +115,9 @@ class SimulationBuilder:
             except SceneError as e:  # the checkpoint's checks name the option a restart has
                 if branch is None:
                     raise
-                raise SceneError(str(e).replace("--restart", "--from", 1)) from e
+                text = str(e)  # only the option that opens the message: it may advise --restart
+                raise SceneError("--from" + text[len("--restart"):] if text.startswith(
+                    "--restart") else text) from e
             self.ps, n_owned, n, self.clock.step[0], history, recorded, averages, end = got[:8]
             self._end_step = self.step if end else None
             self.prm = self.prm._replace(rings=self.prm.rings._replace(phase_in=got.phase))

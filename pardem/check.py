@@ -1,7 +1,8 @@
-"""``pardem check SCENE``: what a scene will do, before it runs (nothing is compiled).
+"""``pardem check SCENE``: what a scene will do, before it runs (no step kernel is compiled).
 
-Stage: entry point. Prints the resolved scene (every default filled in), the contact time of
-the stiffest pair, the time step and steps per contact, the global volume fraction, the
+Stage: entry point. Places the particles as a run would (a count the start cannot hold is
+refused here too). Prints the resolved scene (every default filled in), how the particles
+were placed, the contact time of the stiffest pair, the time step and steps per contact, the global volume fraction, the
 number of steps and particle-steps, an estimate of the wall time from a reference rate
 (``REFERENCE_RATE``: an order of magnitude, not a promise; the machine and the state of the
 packing change it by a factor of two) with how it was obtained and what the machine's load
@@ -13,17 +14,23 @@ from __future__ import annotations
 import os
 
 
-from .core.memory import needed_bytes, particle_count, size_text
+from .core import memory
+from .core.memory import need_text, needed_bytes, size_text
+from .input.placement import PLACEMENTS, initial_configuration
 from .input.scene import Scene
 from .input.scene_file import scene_to_toml
 from .core.scales import smallest_contact_time
-from .core.stability import stability_limit
+from .core.stability import rounded, stability_limit
 from .core.timestep import off_step_text, resolve_step
-from .boundaries.walls import global_volume_fraction
+from .boundaries.walls import RINGS, global_volume_fraction, wall_work_note
 from .input.sanity import density_warning
 from .input.species import free_area
 from .parallel import usable_cores
 
+WALL_DISK_COST = ("measured at 14-39 ns per wall disk and step on this 2-core machine (50,000 "
+                  "to 10^6 inner wall disks), against ~40 ns per free disk at the reference rate")
+REFERENCE_WALL_SHARE = 319 / 2939
+"""Wall disks per free disk of couette_B, whose steps the reference rate includes."""
 REFERENCE_RATE = 25e6
 """Particle-steps per second of one rank on couette_B (docs/scaling.md, 2-core machine)."""
 REFERENCE = ("not timed here (nothing is compiled): the work over a reference rate, from one "
@@ -49,32 +56,53 @@ def describe(scene: Scene) -> str:
     t_c = smallest_contact_time(scene)
     n = scene.n_free
     steps = int(round(scene.time.end / dt))
+    walls = RINGS.disks(scene).radius.size  # moved at every step, on every rank
+    # the reference rate was measured with B's wall disks: more than its share cost extra
+    extra = max(walls - REFERENCE_WALL_SHARE * n, 0.0)
     work = n * steps
+    one = (n + extra) * steps / REFERENCE_RATE
     limit, mode = stability_limit(scene)
     lines = [scene_to_toml(scene).rstrip(), "",
-             f"# particles (free): {n}",
+             f"# particles (free): {n}, {_placement(scene)}",
              f"# contact time of the lightest pair t_c = {t_c:.6g} s; dt = {dt:.6g} s "
              f"= t_c / {t_c / dt:.4g}",
-             f"# stability limit dt <= {limit:.4g} s = t_c / {t_c / limit:.3g} (set by {mode}): "
+             f"# stability limit dt <= {rounded(limit, 4, down=True)} s = t_c / "
+             f"{rounded(t_c / limit, 3, down=False)} (set by {mode}): "
              f"dt is {limit / dt:.3g} x below it"]
     lines.append(_output_times(scene, step))
     nu = volume_fraction(scene)
     if nu is not None:
         lines.append(f"# global volume fraction (free disks + half of each wall disk, at the "
                      f"final outer radius) = {nu:.4f}")
+    two = (n / 1.7 + extra) * steps / REFERENCE_RATE
     lines.append(f"# {steps} steps to t = {scene.time.end:g} s: {work:.4g} particle-steps, "
-                 f"roughly {_duration(work / REFERENCE_RATE)} on 1 rank, "
-                 f"{_duration(work / REFERENCE_RATE / 1.7)} on 2 (at "
+                 f"roughly {_duration(one)} on 1 rank, "
+                 f"{_duration(two)} on 2 (at "
                  f"{REFERENCE_RATE / 1e6:.0f} M particle-steps/s per rank; plus about a minute "
                  "of compilation on a first run)")
+    if extra >= 0.1 * n:
+        lines.append(f"# the estimate counts the rings' {walls} wall disks, beyond the share "
+                     "of the reference cell (319 for 2,939 free disks), as free disks: every "
+                     f"rank moves each at every step, {WALL_DISK_COST}")
     lines.append(f"# the estimate is {REFERENCE}")
-    lines.append(load_note(work / REFERENCE_RATE, *os.getloadavg()[:1], len(usable_cores())))
-    lines.append(f"# memory: about {size_text(needed_bytes(scene))} per rank at set-up "
-                 f"({particle_count(scene)} particles with the wall disks)")
+    lines.append(load_note(one, *os.getloadavg()[:1], len(usable_cores())))
+    lines.append(f"# memory: about {size_text(needed_bytes(scene))} per rank at its peak "
+                 f"({need_text(scene)})")
+    if wall_work_note(scene):
+        lines.append(f"# note: {wall_work_note(scene)}")
     warning = density_warning(scene)
     if warning:
         lines.append(f"# warning: {warning}")
     return "\n".join(lines)
+
+
+def _placement(scene: Scene) -> str:
+    """How a run places the particles (a count the start cannot hold is refused, as by run);
+    not tried where the scene does not fit in this node's memory, which run refuses first."""
+    available = memory.available_bytes()
+    if available is not None and needed_bytes(scene) > available:
+        return "not placed here: the scene does not fit in this node's memory (below)"
+    return PLACEMENTS[initial_configuration(scene).placement]
 
 
 def load_note(seconds: float, load: float, cores: int) -> str:

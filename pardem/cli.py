@@ -120,12 +120,15 @@ def main(argv: list[str] | None = None) -> int:
     from .input.scene import SceneError
     from .input.scene_file import load_scene
     from .simulation import Simulation, SimulationError
-    from .stop import Interrupted, catching_signals
+    from .stop import Interrupted, catching_signals, raise_on_sigterm, release_sigterm
 
     comm = world()  # None on one process: MPI is not loaded
     rank = rank_of(comm)
     root = rank == 0
     out = Path(args.out or "runs")
+    # a batch system's SIGTERM during the set-up or a compile ends the command as a Ctrl-C
+    # there does (one line, 128 + its number), not silently by the signal
+    sigterm = raise_on_sigterm()
     try:
         scene = load_scene(args.scene)
         if args.branch is not None and args.end is not None:  # the branch checks the end
@@ -164,16 +167,19 @@ def main(argv: list[str] | None = None) -> int:
             sys.stderr.write(f"pardem: {e}; the checkpoint {out / 'checkpoint.h5'} holds this "
                              f"state: continue with --restart {out}\n")
         return 128 + e.signum
-    except KeyboardInterrupt:  # Ctrl-C outside the time-step loop: set-up, compiling, the end
+    except KeyboardInterrupt as e:  # Ctrl-C or SIGTERM outside the loop: set-up, compiling
         import signal
 
-        signal.signal(signal.SIGINT, signal.SIG_IGN)  # a second one must not skip Abort
+        for sig in (signal.SIGINT, signal.SIGTERM):  # a second one must not skip Abort
+            signal.signal(sig, signal.SIG_IGN)
+        signum = getattr(e, "signum", signal.SIGINT)  # stop.Terminated: SIGTERM
         who = "" if comm is None else f"rank {rank}: "
-        sys.stderr.write(f"pardem: {who}interrupted (SIGINT) outside the time-step loop; "
-                         f"{out / 'checkpoint.h5'} holds the last checkpoint, if any\n")
+        sys.stderr.write(f"pardem: {who}interrupted ({signal.Signals(signum).name}) outside "
+                         f"the time-step loop; {out / 'checkpoint.h5'} holds the last "
+                         "checkpoint, if any\n")
         sys.stderr.flush()
-        abort(comm, 130)
-        return 130
+        abort(comm, 128 + signum)
+        return 128 + signum
     except BaseException as e:
         # a full disk, a quota, or a file-size limit (ulimit -f): the same for the user
         full = isinstance(e, OSError) and e.errno in (errno.ENOSPC, errno.EDQUOT, errno.EFBIG)
@@ -197,6 +203,8 @@ def main(argv: list[str] | None = None) -> int:
         if full:
             return 4
         raise
+    finally:
+        release_sigterm(sigterm, restore=argv is not None)  # argv given: called from Python
     return 0
 
 

@@ -27,6 +27,7 @@ import time
 
 from . import stop
 from .builder import SimulationBuilder
+from .core.memory import needed_bytes, peak_bytes, size_text
 from .core.step import BAD_PARTICLE, MPI_FAILED, NEED_REBUILD, TOO_DEEP
 from .core.timestep import check_step_count
 from .core.watchdog import bad_particle_message, too_deep_message
@@ -152,6 +153,9 @@ class Simulation(SimulationBuilder, StateViews, RunOutput):
         for w in writers:
             self._timed(w.stage, w.close, self)
         self.log(breakdown(self))
+        peak = self.decomp.max(peak_bytes())  # collective
+        self.log(f"memory: peak {size_text(peak)} on the busiest rank (pardem check's estimate: "
+                 f"{size_text(needed_bytes(self.scene))})")
         if progress and root:
             end_progress()
             sys.stderr.write(breakdown(self) + "\n")

@@ -46,6 +46,30 @@ def requested() -> int:
     return _received[0]
 
 
+class Terminated(KeyboardInterrupt):
+    """SIGTERM before the time-step loop (reading the scene, building the state, compiling),
+    raised as Python raises KeyboardInterrupt for SIGINT: without it SIGTERM kills the process
+    silently (status -15), where a Ctrl-C at the same moment ends with one line and 130."""
+
+    signum = signal.SIGTERM
+
+
+def _raise_terminated(signum, frame) -> None:
+    raise Terminated()
+
+
+def raise_on_sigterm():
+    """From now on SIGTERM raises ``Terminated`` in the main thread (``catching_signals``
+    records it instead while it lasts). Returns the previous handler, for ``release_sigterm``."""
+    return signal.signal(signal.SIGTERM, _raise_terminated)
+
+
+def release_sigterm(previous, restore: bool = True) -> None:
+    """End ``raise_on_sigterm``: the ``previous`` handler returns, or with ``restore`` false
+    SIGTERM stays ignored, as after ``catching_signals(restore=False)`` (and for its reason)."""
+    signal.signal(signal.SIGTERM, previous if restore else signal.SIG_IGN)
+
+
 class Interrupted(Exception):
     """A run stopped by a signal at a step boundary, after its writers closed."""
 

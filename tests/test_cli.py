@@ -143,11 +143,11 @@ def test_a_scene_too_large_for_the_memory_is_refused_before_allocating(tmp_path,
     write_scene(scene, path)
     assert main(["run", str(path), "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err
-    assert f"pardem: error: {path}: 1000016000 particles (wall disks included) need about" in err
-    assert "559 GiB per rank" in err  # (1,000,016,000 x 600 B + 200 MB) / 2^30 = 559.0
+    assert f"pardem: error: {path}: this run needs about 559 GiB per rank" in err
+    assert "1000016000 particles with the wall disks" in err  # (1,000,016,000 x 600 B + 200 MB) / 2^30 = 559.0
     assert "only 64 GiB per rank is available" in err
     assert main(["check", str(path)]) == 0
-    assert "# memory: about 559 GiB per rank at set-up" in capsys.readouterr().out
+    assert "# memory: about 559 GiB per rank" in capsys.readouterr().out
 
 
 def test_a_folder_holding_another_run_needs_overwrite(tmp_path, capsys):
@@ -221,7 +221,7 @@ def test_check_prints_the_step_and_the_stability_limit(capsys):
     out = capsys.readouterr().out
     assert "dt = 4.34783e-05 s = t_c / 50.06" in out
     assert "output at exactly the times named" in out
-    assert ("# stability limit dt <= 0.0001963 s = t_c / 11.1 (set by the densest packing's "
+    assert ("# stability limit dt <= 0.0001962 s = t_c / 11.1 (set by the densest packing's "
             "translation") in out
     assert "dt is 4.51 x below it" in out
 

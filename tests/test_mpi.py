@@ -313,6 +313,19 @@ def test_pardem_run_on_2_ranks_writes_the_serial_snapshots(tmp_path):
             np.testing.assert_array_equal(s[key][()], p[key][()], key)
 
 
+def assert_rings_continued(whole: dict, cut: dict, kept: int) -> None:
+    """A restarted run's rings.h5 (``cut``) against the uninterrupted run's: the same sample
+    times, the first ``kept`` samples (the checkpoint's) and the ring loads the same bits (the
+    loads are the same bits on any number of ranks), the later sums within 1e-12 of each
+    column's largest value (a restart cuts the annulus anew: the ranks sum other particles)."""
+    assert np.abs(whole["sums"]).max() > 0
+    np.testing.assert_array_equal(cut["times"], whole["times"])
+    np.testing.assert_array_equal(cut["sums"][:kept], whole["sums"][:kept])
+    np.testing.assert_array_equal(cut["ring_loads_samples"], whole["ring_loads_samples"])
+    scale = np.abs(whole["sums"]).max(axis=(0, 1))
+    assert np.all(np.abs(cut["sums"] - whole["sums"]) <= 1e-12 * scale + 1e-300)
+
+
 def test_averages_of_a_run_restarted_on_2_ranks_equal_the_uninterrupted_runs(tmp_path):
     """A serial run stopped inside the averaging window and continued from its checkpoint on
     2 ranks writes the uninterrupted serial run's ring averages: the samples before the
@@ -333,13 +346,8 @@ def test_averages_of_a_run_restarted_on_2_ranks_equal_the_uninterrupted_runs(tmp
              "0.3", "--restart", str(tmp_path / "cut" / "checkpoint.h5"), "--quiet"], 2,
             module=False)
     whole, cut = read_rings(tmp_path / "whole"), read_rings(tmp_path / "cut")
-    assert whole["times"].size == 7 and np.abs(whole["sums"]).max() > 0
-    np.testing.assert_array_equal(cut["times"], whole["times"])
-    np.testing.assert_array_equal(cut["sums"][:3], whole["sums"][:3])  # 0.15, 0.175, 0.2 s
-    # the ring loads: kept by the checkpoint, and the same bits on any number of ranks
-    np.testing.assert_array_equal(cut["ring_loads_samples"], whole["ring_loads_samples"])
-    scale = np.abs(whole["sums"]).max(axis=(0, 1))
-    assert np.all(np.abs(cut["sums"] - whole["sums"]) <= 1e-12 * scale + 1e-300)
+    assert whole["times"].size == 7
+    assert_rings_continued(whole, cut, kept=3)  # 0.15, 0.175, 0.2 s
     for key in ("nu", "v_phi", "sigma_rr", "F_rr", "mu_c"):
         np.testing.assert_allclose(cut[key], whole[key], rtol=1e-9, atol=0, err_msg=key)
     assert "continuing the ring averages from its 3 samples" in (
@@ -376,3 +384,32 @@ def test_ring_sums_do_not_depend_on_the_number_of_ranks(tmp_path):
     assert np.all(torques[1] > 0)  # the ring drives the packing
     outer = loads[1][:, LOADS.index("outer_torque")]
     assert np.all(outer < 0) and np.all(loads[1][:, LOADS.index("outer_radial_force")] > 0)
+
+
+@pytest.mark.timeout(900)
+def test_a_restart_on_two_ranks_keeps_the_samples_up_to_its_checkpoint(tmp_path):
+    """2 ranks, stopped inside the averaging window and restarted on 2 (docs/running.md):
+    ``assert_rings_continued``, and the particles end the same bits."""
+    import h5py
+
+    from averaging.io import read_rings
+
+    scene = fast_shear_scene(tmp_path, averaging={"start": 0.11, "end": 0.15,
+                                                  "sample_interval": 0.01,
+                                                  "ring_width": 0.9275e-3},
+                             output={"checkpoint_interval": 0.1, "snapshot_interval": 1.0})
+
+    def run(out: str, end: str, *extra: str) -> None:
+        run_mpi(["-m", "pardem.cli", "run", str(scene), "--out", str(tmp_path / out), "--end",
+                 end, "--quiet", *extra], 2, module=False)
+
+    run("whole", "0.15")
+    run("cut", "0.13")
+    run("cut", "0.15", "--restart", str(tmp_path / "cut"))
+    whole, cut = read_rings(tmp_path / "whole"), read_rings(tmp_path / "cut")
+    assert whole["times"].size == 5
+    assert_rings_continued(whole, cut, kept=3)  # 0.11, 0.12, 0.13 s
+    with h5py.File(tmp_path / "whole" / "checkpoint.h5") as a, \
+            h5py.File(tmp_path / "cut" / "checkpoint.h5") as b:
+        for key in ("x", "v", "omega", "pair_hist"):
+            np.testing.assert_array_equal(a[key][()], b[key][()], key)

@@ -179,6 +179,47 @@ def global_volume_fraction(g, disks: float) -> float:
     return (disks + wall_area_share(g)) / (math.pi * (g.outer_radius**2 - g.inner_radius**2))
 
 
+WALL_WORK = 10
+"""Wall disks per free disk above which a scene is told that its rings dominate the run time."""
+
+
+def wall_work_note(scene) -> str | None:
+    """Why the rings' wall disks will dominate a scene's run time, or None."""
+    g = scene.geometry
+    if g is None:
+        return None
+    walls = sum(wall_layout(g, ring).count for ring in ("inner", "outer"))
+    if walls <= WALL_WORK * scene.n_free:
+        return None
+    return (f"the rings carry {walls} wall disks for {scene.n_free} free disks: every rank "
+            "moves each wall disk at every step, at about the cost of a free disk, so the "
+            f"steps cost about as much as a cell of {walls + scene.n_free} free disks (pardem "
+            "check estimates the run time); fewer, larger wall disks (inner_wall_count, "
+            "*_wall_diameter) make a rough ring at a fraction of the cost")
+
+
+def check_sizes(g):
+    """Why the wall-disk keys cannot make a cell, as ``(key, value, reason)``, or None: checked
+    on the keys themselves before any layout or area is computed from them (a diameter of
+    1e300 m overflows the area, a spacing of 1e-300 m the count)."""
+    gap = g.outer_radius - g.inner_radius
+    for ring in ("inner", "outer"):
+        own = getattr(g, f"{ring}_wall_diameter")
+        diameter = own or g.wall_particle_diameter
+        if not diameter < gap:
+            return (f"{ring}_wall_diameter" if own else "wall_particle_diameter", diameter,
+                    f"the {ring} ring's wall disks must be smaller than the annulus gap "
+                    f"outer_radius - inner_radius = {gap:.6g} m")
+        if getattr(g, f"{ring}_wall_count") is None:
+            around = 2.0 * math.pi * (g.inner_radius if ring == "inner" else g.outer_radius)
+            count = around / g.wall_particle_spacing
+            if count > MAX_WALL_DISKS:
+                return ("wall_particle_spacing", g.wall_particle_spacing,
+                        f"gives {count:.3g} wall disks on the {ring} ring ({around:.6g} m "
+                        f"around), more than {MAX_WALL_DISKS}")
+    return None
+
+
 def check_layout(g, ring: str, smallest_free: float):
     """Why ring's layout cannot hold the free disks (smallest diameter ``smallest_free``, m),
     as ``(key, value, reason)``, or None if it can. Without the flat surface the disks alone
@@ -192,9 +233,6 @@ def check_layout(g, ring: str, smallest_free: float):
         return (f"{ring}_wall_count", w.count, f"more than {MAX_DISKS_PER_DIAMETER} disks per "
                 f"wall-disk diameter along the ring (circumference {2 * math.pi * w.radius:.6g} m"
                 f", diameter {w.diameter!r} m)")
-    if not w.diameter < g.outer_radius - g.inner_radius:
-        return (f"{ring}_wall_diameter", w.diameter,
-                f"must be < outer_radius - inner_radius = {g.outer_radius - g.inner_radius:.6g} m")
     if w.flat:
         return None
     if w.count == 0:

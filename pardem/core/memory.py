@@ -29,6 +29,7 @@ lighter merges of the contact history (docs/scaling.md).
 from __future__ import annotations
 
 import ctypes
+import math
 import resource
 from contextlib import contextmanager
 from pathlib import Path
@@ -54,8 +55,42 @@ def particle_count(scene: Scene) -> int:
 
 
 def needed_bytes(scene: Scene) -> float:
-    """Estimated peak bytes of one rank."""
-    return BASE_BYTES + BYTES_PER_PARTICLE * float(particle_count(scene))
+    """Estimated peak bytes of one rank: the particles and the in-situ averaging."""
+    return BASE_BYTES + BYTES_PER_PARTICLE * float(particle_count(scene)) + averaging_bytes(scene)
+
+
+def averaging_shape(scene: Scene) -> tuple[int, int]:
+    """(samples, rings) of the scene's in-situ averaging up to its [time] end; (0, 0)
+    without one. The samples as the grid of output/writers.py counts them, to a sample."""
+    from ..sampling import ring_width
+
+    cfg, g = scene.averaging, scene.geometry
+    if cfg is None or g is None:
+        return 0, 0
+    rings = max(math.ceil((g.outer_radius - g.inner_radius) / ring_width(scene) - 1e-9), 1)
+    last = min(cfg.end, scene.time.end)
+    samples = (math.floor((last - cfg.start) / cfg.sample_interval + 1e-9) + 1
+               if last >= cfg.start else 0)
+    return samples, rings
+
+
+def averaging_bytes(scene: Scene) -> float:
+    """Peak bytes of the in-situ averaging on one rank. Every rank keeps every sample's ring
+    sums (reduced over the ranks), rings x ``N_COLUMNS`` numbers each, and stacks them once
+    more while it forms the fields or writes a checkpoint. At the end it forms every field
+    (``FIELDS``) of the whole window and of each block of samples its errors come from, and
+    rings.vtu repeats each ring's fields in its segments (averaging/mesh.py)."""
+    samples, rings = averaging_shape(scene)
+    if not samples:
+        return 0.0
+    from averaging.fields import FIELDS, N_COLUMNS  # averaging builds on pardem
+    from averaging.mesh import VTU_BYTES_PER_CELL, segments_for
+    from averaging.timeavg import ERROR_BLOCKS
+
+    blocks = min(ERROR_BLOCKS, samples)
+    return (2.0 * 8.0 * samples * rings * N_COLUMNS
+            + 8.0 * (blocks + 1) * len(FIELDS) * rings
+            + VTU_BYTES_PER_CELL * float(rings * segments_for(rings)))
 
 
 def available_bytes() -> float | None:
@@ -146,15 +181,32 @@ def prepare_memory(scene: Scene, comm=None) -> None:
     available = available_bytes()
     share = smallest_node_share(comm, float("inf") if available is None else available)
     # this process's interpreter and libraries are already resident: not new memory
-    resident = 1024.0 * resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
+    resident = peak_bytes()
     need = needed_bytes(scene)
     if need - min(resident, BASE_BYTES) > share:
         ranks = size_of(comm)
         raise SceneError(
-            f"{particle_count(scene)} particles (wall disks included) need about "
-            f"{size_text(need)} per rank at set-up (~{BYTES_PER_PARTICLE} bytes per particle: "
-            f"every rank places the whole cell); only {size_text(share)} per rank is "
-            f"available ({ranks} rank(s)); use fewer particles or a machine with more memory")
+            f"this run needs about {size_text(need)} per rank ({need_text(scene)}); only "
+            f"{size_text(share)} per rank is available ({ranks} rank(s)): "
+            + ("use fewer particles or a machine with more memory" if averaging_bytes(scene)
+               < need / 2 else "average over fewer samples (a larger [averaging] "
+               "sample_interval, a shorter window) or fewer rings (a larger ring_width)"))
+
+
+def need_text(scene: Scene) -> str:
+    """What ``needed_bytes`` is made of, in words."""
+    text = (f"{particle_count(scene)} particles with the wall disks at ~{BYTES_PER_PARTICLE} "
+            f"bytes each: every rank places the whole cell")
+    samples, rings = averaging_shape(scene)
+    if samples:
+        text += (f"; {size_text(averaging_bytes(scene))} for the averaging's {samples} samples "
+                 f"of {rings} rings, which every rank keeps")
+    return text
+
+
+def peak_bytes() -> float:
+    """This process's peak resident memory so far (bytes)."""
+    return 1024.0 * resource.getrusage(resource.RUSAGE_SELF).ru_maxrss
 
 
 def size_text(n: float) -> str:

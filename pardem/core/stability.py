@@ -8,6 +8,7 @@ limit"). Units SI.
 from __future__ import annotations
 
 import math
+from decimal import ROUND_CEILING, ROUND_FLOOR, Decimal
 
 import numpy as np
 
@@ -132,3 +133,14 @@ def stability_limit(scene: Scene) -> tuple[float, str]:
     """The largest admitted step (s), the smallest of ``contact_modes``, and its mode."""
     what, step = min(contact_modes(scene), key=lambda m: m[1])
     return step, what
+
+
+def rounded(x: float, digits: int, down: bool) -> str:
+    """``x`` to ``digits`` significant digits, rounded down (or up) rather than to the nearest:
+    a bound printed this way holds as printed, so that copying a printed limit into a scene
+    is accepted (the nearest rounding of 0.00019629 s is 0.0001963 s, above it)."""
+    if not math.isfinite(x) or x == 0.0:
+        return f"{x:g}"
+    exact = Decimal(x)  # the float's own value, no rounding yet
+    grid = Decimal(1).scaleb(exact.adjusted() - digits + 1)
+    return f"{float(exact.quantize(grid, ROUND_FLOOR if down else ROUND_CEILING)):.{digits}g}"

@@ -20,10 +20,11 @@ import numpy as np
 
 from ..contact.damped_spring import restitution_beta
 from ..contact.overlap import MAX_OVERLAP
-from ..contact.pairs import contact_laws
+from ..contact.pairs import contact_laws, pair_contacts
 from .scales import free_disks, normal_stiffness, smallest_contact_time, smallest_reduced_mass
 from ..input.scene import Scene, SceneError
-from .stability import stability_limit
+from ..input.values import fail, show
+from .stability import STEPS_PER_CONTACT, rounded, stability_limit
 
 
 MAX_IMPACT_OVERLAP = MAX_OVERLAP  # of the smaller diameter of a contact
@@ -46,7 +47,8 @@ def check_wall_speeds(scene: Scene) -> None:
         raise SceneError(
             f"[geometry] compression_time = {g.compression_time!r}: the outer ring must move "
             f"{gap:.4g} m from outer_start_radius to outer_radius; give it a compression time "
-            f"(at least {0.5 * math.pi * gap / limit:.4g} s), or start at the final radius (s)")
+            f"(at least {rounded(0.5 * math.pi * gap / limit, 4, down=False)} s), or start at "
+            "the final radius (s)")
     speeds = [("omega_inner", abs(g.omega_inner) * g.inner_radius, "rad/s",
                limit / g.inner_radius, "|omega_inner| <=")]
     if g.compression_time > 0:
@@ -58,9 +60,9 @@ def check_wall_speeds(scene: Scene) -> None:
             raise SceneError(
                 f"[geometry] {key} = {getattr(g, key)!r}: the ring surface moves at up to "
                 f"{v:.3g} m/s; a disk hit at that speed overlaps it by up to v sqrt(m/k_n) = "
-                f"{100 * v * worst:.0f} % of its diameter, beyond the "
+                f"{100 * v * worst:.3g} % of its diameter, beyond the "
                 f"{100 * MAX_IMPACT_OVERLAP:.0f} % the contact model resolves; use {rule} "
-                f"{bound:.4g} {unit}, or a stiffer k_n")
+                f"{rounded(bound, 4, down='<' in rule)} {unit}, or a stiffer k_n")
 
 
 def softest_load(scene: Scene) -> float:
@@ -143,7 +145,33 @@ def check_free_speeds(scene: Scene, dt: float) -> None:
             f"free particle #{i} (0-based, in the order given): moves at {speed[i]:.3g} m/s "
             f"(velocity and spin at its rim), {per_step[i]:.3g} diameters per step of "
             f"{dt:.4g} s: it could pass through another "
-            f"disk between two steps; at most {0.5 * p.diameter[i] / dt:.3g} m/s at this dt")
+            f"disk between two steps; at most {rounded(0.5 * p.diameter[i] / dt, 3, down=True)} "
+            "m/s at this dt")
+
+
+def check_adhesion(scene: Scene, dt: float) -> None:
+    """SceneError if a Luding law's tension branch, f = -k_adhesion delta, is stiffer than a
+    step of dt s resolves. On it the overlap of a pair of reduced mass m_red follows
+    m_red delta'' = k_adhesion delta: it grows or decays like exp(t sqrt(k_adhesion/m_red)),
+    a time the step must follow as it follows a collision (stability.STEPS_PER_CONTACT steps
+    per pi sqrt(m_red/k), the lightest pair's m_red the fastest). So k_adhesion <= m_red
+    (pi/(5 dt))^2: k_unload at the coarsest step the resolution rule admits (t_c/5 of
+    k_unload), about 100 k_unload at the default dt (t_c/50). The time step does not follow
+    k_adhesion, so nothing else bounds it: k_adhesion = 1e300 would turn the branch into a
+    jump of the force no step resolves (and overflow the pair tables' mixing)."""
+    most = smallest_reduced_mass(scene) * (math.pi / (STEPS_PER_CONTACT * dt)) ** 2  # N/m
+    tables = [(f"[[contact.pair]] #{i} {show(p.species[0])}-{show(p.species[1])}", c)
+              for i, (p, (_, c)) in enumerate(zip(scene.pairs, pair_contacts(scene)))]
+    for label, c in [("[contact]", scene.contact)] + tables:
+        if c.normal == "luding" and c.k_adhesion > most:
+            raise fail(label, "k_adhesion", c.k_adhesion,
+                       f"Luding's tension branch -k_adhesion delta changes a pair's overlap "
+                       f"like exp(t sqrt(k_adhesion/m_red)), faster than a step of dt = "
+                       f"{dt:.4g} s follows: with {STEPS_PER_CONTACT:g} steps per pi "
+                       f"sqrt(m_red/k_adhesion), as a collision gets per contact time, and the "
+                       f"lightest pair's m_red = {smallest_reduced_mass(scene):.4g} kg, "
+                       f"k_adhesion may be at most {rounded(most, 4, down=True)} N/m (k_unload "
+                       f"= {c.k_unload:g} N/m); lower it, or shorten dt", "N/m")
 
 
 QUANTUM_STEPS = 100
@@ -224,7 +252,8 @@ def resolve_step(scene: Scene) -> Fraction:
     Raises SceneError when dt exceeds ``stability_limit`` (t_c/5, or the largest stable step of
     the stiffest mode of the densest packing: for the paper's material its damped translation,
     t_c/11), when a ring moves too fast for the contact law (``check_wall_speeds``) or free
-    disks would meet too fast (``check_free_speeds``).
+    disks would meet too fast (``check_free_speeds``) or a Luding law's tension branch is
+    stiffer than the step resolves (``check_adhesion``).
     """
     check_wall_speeds(scene)
     t_c = smallest_contact_time(scene)
@@ -236,14 +265,19 @@ def resolve_step(scene: Scene) -> Fraction:
         step = quantum / math.ceil(quantum / Fraction(longest))
     dt = float(step)
     check_free_speeds(scene, dt)
+    check_adhesion(scene, dt)
     limit, what = stability_limit(scene)
     if dt > limit:
+        # the limit rounded down, the step and the ratio rounded up: each printed bound holds
+        # as printed (dt = the printed limit is accepted), and dt never prints as the limit
         key = "dt" if scene.time.dt is not None else "dt_per_contact"
-        given = f"{dt:.6g}" if key == "dt" else f"{scene.time.dt_per_contact:g} (dt = {dt:.4g} s)"
+        given = (repr(scene.time.dt) if key == "dt" else
+                 f"{scene.time.dt_per_contact:g} (dt = {rounded(dt, 4, down=False)} s)")
+        bound, ratio = rounded(limit, 4, down=True), rounded(t_c / limit, 3, down=False)
         raise SceneError(
-            f"[time] {key} = {given}: dt exceeds the stability limit {limit:.4g} s = t_c/"
-            f"{t_c / limit:.3g}, set by {what}; use dt <= {limit:.4g} s, i.e. dt_per_contact "
-            f">= {t_c / limit:.3g} (t_c = {t_c:.4g} s)")
+            f"[time] {key} = {given}: dt exceeds the stability limit {bound} s = t_c/"
+            f"{ratio}, set by {what}; use dt <= {bound} s, i.e. dt_per_contact >= {ratio} "
+            f"(t_c = {t_c:.4g} s)")
     check_step_count(scene, dt, scene.time.end, "[time] end")
     return step
 

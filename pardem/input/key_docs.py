@@ -141,7 +141,9 @@ KEYS = {
     ("contact", "k_unload"): "stiffness of the unloading and reloading branch (`luding`), "
                              "at least `k_n`",
     ("contact", "k_adhesion"): "adhesive (tensile) stiffness: the pull −k_adhesion δ "
-                               "(`luding`)",
+                               "(`luding`); at most m_red (π/(5 dt))² of the lightest pair, "
+                               "so that the step resolves the tension branch (about 100 "
+                               "`k_unload` at the default dt)",
     ("contact.pair", "species"): "the pair: two species names, or a species and `inner_ring` "
                                  "or `outer_ring` (that ring's wall disks and flat surface); in "
                                  "a free scene two species numbers",

@@ -7,7 +7,9 @@ scene seed, so every rank builds the same configuration.
 
 Placement: near 0.5 area fraction, random sequential insertion jams, so particles sit on a
 triangular lattice whose spacing is as large as the annulus allows, each jittered within the room
-its lattice cell leaves, and the lattice sites used are a random subset.
+its lattice cell leaves, and the lattice sites used are a random subset. The lattice is spaced
+by the largest disk: where a size distribution's largest disk makes it too coarse for the
+count, the disks are inserted at random by their own sizes instead (``insertion.py``).
 """
 
 from __future__ import annotations
@@ -29,7 +31,7 @@ class Initial(NamedTuple):
     """Arrays by gid: x [n,2] (m), v [n,2] (m/s), omega [n] (rad/s), radius [n] (m), mass [n]
     (kg, inf for wall disks), kind [n], phi0 [n] (rad), species [n] (partner numbers,
     contact/pairs.py: wall disks from a file take S, the [contact] law with every partner);
-    n_free."""
+    n_free; how the free disks were placed (``PLACEMENTS``)."""
 
     x: np.ndarray
     v: np.ndarray
@@ -40,6 +42,14 @@ class Initial(NamedTuple):
     phi0: np.ndarray
     species: np.ndarray
     n_free: int
+    placement: str = "given"
+
+
+PLACEMENTS = {"given": "given in the scene",
+              "lattice": "on a jittered triangular lattice spaced by the largest disk",
+              "inserted": "inserted at random by their own sizes (a lattice spaced by the "
+                          "largest disk holds too few)"}
+"""How ``initial_configuration`` placed the free disks, in words."""
 
 
 def initial_configuration(scene: Scene) -> Initial:
@@ -49,9 +59,9 @@ def initial_configuration(scene: Scene) -> Initial:
         p = scene.particles
         x, v, omega = np.column_stack([p.x, p.y]), np.column_stack([p.vx, p.vy]), p.omega
         radius, mass = 0.5 * np.asarray(p.diameter, float), p.mass
-        labels = p.species
+        labels, how = p.species, "given"
     else:
-        x, radius, mass, labels = _couette(scene)
+        x, radius, mass, labels, how = _couette(scene)
         v, omega = np.zeros_like(x), np.zeros(radius.size)
     n, w = radius.size, glued_disks(scene)
     k, s = w.radius.size, species_count(scene)
@@ -61,12 +71,12 @@ def initial_configuration(scene: Scene) -> Initial:
                    np.concatenate([np.full(n, FREE, np.int8), w.kind]),
                    np.concatenate([np.zeros(n), w.phi0]),
                    np.concatenate([labels, np.where(w.kind == OUTER_WALL, s + 1, s)]).astype(
-                       np.int8), n)
+                       np.int8), n, how)
 
 
-def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, str]:
     """Free disks placed at random between the rings (clear of their wall disks): x, radius,
-    mass, species."""
+    mass, species, how (``PLACEMENTS``)."""
     g = scene.geometry
     rng = np.random.default_rng(scene.info.seed)
     counts = [s.count for s in scene.species]
@@ -84,12 +94,9 @@ def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
     r_lo = r_in_clear + rmax * 1.01
     r_hi = r_out_clear - rmax * 1.01
     sites, spacing = _lattice_sites(r_lo, r_hi, n, 2.0 * rmax * 1.001)
-    if sites is None:
-        fit = 0 if spacing is None else spacing
-        raise SceneError(
-            f"cannot place {n} particles: at most {fit} fit without overlap between the inner "
-            f"ring ({g.inner_radius} m) and [geometry] outer_start_radius = "
-            f"{g.outer_start_radius} m; increase outer_start_radius or reduce the counts")
+    if sites is None:  # a lattice spaced by the largest disk is too coarse: each by its size
+        x = _inserted(scene, radius, r_in_clear, r_out_clear, rng, lattice_fit=spacing or 0)
+        return x, radius, mass, labels, "inserted"
     chosen = sites[np.sort(rng.choice(len(sites), size=n, replace=False))]
     # jitter within the site's cell, and never across the band the centre must stay in (clear
     # of both rings' wall disks): in a sparse scene the cell is much wider than the band
@@ -99,7 +106,39 @@ def _couette(scene: Scene) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarr
     ang = rng.uniform(0.0, 2.0 * math.pi, n)
     rad = room * np.sqrt(rng.uniform(0.0, 1.0, n))
     x = chosen + np.column_stack([rad * np.cos(ang), rad * np.sin(ang)])
-    return x, radius, mass, labels
+    return x, radius, mass, labels, "lattice"
+
+
+INSERTION_TRIALS = 100_000
+"""Random trial points per disk before the insertion gives up (a dilute start needs a few)."""
+
+
+def _inserted(scene: Scene, radius: np.ndarray, r_in_clear: float, r_out_clear: float,
+              rng: np.random.Generator, lattice_fit: int) -> np.ndarray:
+    """Centres of disks of ``radius`` inserted at random by their own sizes, largest first
+    (``insertion.py``), clear of both rings' wall disks; SceneError if they do not fit."""
+    from .insertion import insert_disks  # compiled: loaded only for the starts that need it
+
+    g = scene.geometry
+    order = np.argsort(-radius, kind="stable")
+    r = radius[order]
+    lo, hi = r_in_clear + r * 1.01, r_out_clear - r * 1.01
+    seed = int(rng.integers(2**31 - 1))
+    x_sorted, placed = insert_disks(r, lo, hi, seed, INSERTION_TRIALS)
+    n = radius.size
+    if placed < n:
+        area = math.pi * (g.outer_start_radius**2 - g.inner_radius**2)
+        nu = float(np.sum(math.pi * radius**2)) / area
+        raise SceneError(
+            f"cannot place {n} particles between the inner ring ({g.inner_radius} m) and "
+            f"[geometry] outer_start_radius = {g.outer_start_radius} m: a triangular lattice "
+            f"spaced by the largest disk holds {lattice_fit}, and random insertion by each "
+            f"disk's own size stalled after {placed} (the disks would fill {nu:.3f} of the "
+            "area; random insertion stops near 0.55); increase outer_start_radius or reduce "
+            "the counts")
+    x = np.empty_like(x_sorted)
+    x[order] = x_sorted
+    return x
 
 
 def _lattice_sites(r_lo: float, r_hi: float, n: int, min_spacing: float):

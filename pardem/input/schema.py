@@ -263,6 +263,8 @@ def _counts(species: tuple[Species, ...], g: Geometry, seed: int,
 
 
 def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
+    from ..boundaries.walls import check_sizes  # walls builds on scene types (as in _fit)
+
     ri, ro = g["inner_radius"], g["outer_radius"]
     if not ro > ri:
         raise fail("[geometry]", "outer_radius", ro,
@@ -273,7 +275,12 @@ def _geometry(g: dict[str, Any], species: tuple[Species, ...]) -> Geometry:
     # the largest a disk can be before the counts give the drawn ones (_fit)
     _across(ro - ri, [(s.diameter_max if s.distributed else s.diameter, s, "largest diameter")
                       for s in species])
-    return Geometry(**g)
+    geometry = Geometry(**g)
+    why = check_sizes(geometry)  # before the wall disks' area or count is computed (_counts)
+    if why is not None:
+        key, value, text = why
+        raise fail("[geometry]", key, value, text, "m")
+    return geometry
 
 
 def _across(gap: float, disks: list[tuple[float | None, Species, str]]) -> None:

@@ -137,7 +137,14 @@ def check_species(s: Species, i: int, height: float) -> Species:
                          "missing (required with a diameter_distribution, in kg/m^3)")
     if s.mass is not None or s.distributed:
         return s
-    return dataclasses.replace(s, mass=s.density * math.pi * (s.diameter / 2) ** 2 * height)
+    return dataclasses.replace(s, mass=disk_mass(s.density, s.diameter, height))
+
+
+def disk_mass(density, diameter, height: float):
+    """The mass (kg) of a disk of ``density`` (kg/m^3), ``diameter`` (m, or an array of them)
+    and ``height`` (m): density pi (d/2)^2 h, the one expression every caller uses, so that a
+    mass given as a density is the same bits wherever it is formed."""
+    return density * math.pi * (diameter / 2) ** 2 * height
 
 
 def species_disks(scene) -> tuple[tuple[np.ndarray, np.ndarray], ...]:
@@ -177,7 +184,7 @@ def disks_of(s: Species, index: int, seed: int, height: float) -> tuple[np.ndarr
     else:
         d = draw_diameters(s, n, np.random.default_rng(np.random.SeedSequence(
             seed, spawn_key=(index,))))
-        m = s.density * math.pi * (d / 2) ** 2 * height
+        m = disk_mass(s.density, d, height)
     for a in (d, m):
         a.setflags(write=False)
     return d, m

@@ -20,12 +20,12 @@ the branch continues exactly as ``--restart`` would.
 
 from __future__ import annotations
 
-import json
 from fractions import Fraction
 
 import numpy as np
 
-from ..input.scene import _LATER, SceneError
+from ..input.scene import _LATER, Contact, SceneError
+from ..input.species import disk_mass
 from .averages import sample_grid
 from .checkpoint import checkpoint_file, open_checkpoint
 
@@ -48,7 +48,7 @@ def branch_head(path, scene, dt: float, init, columns: tuple[str, ...], step_len
         if "scene_physics" not in attrs:
             raise SceneError(f"--from {path}: the checkpoint does not record its scene (written "
                              "by an older pardem): continue it with --restart instead")
-        theirs = json.loads(attrs["scene_physics"])
+        theirs = attrs["scene_physics"]
         ours = scene.physics()
         refuse_changes(path, ours, theirs, init.n_free, int(attrs.get("n_free", init.n_free)))
         n = init.radius.size
@@ -88,7 +88,7 @@ def branch_head(path, scene, dt: float, init, columns: tuple[str, ...], step_len
 def refuse_changes(path, ours: dict, theirs: dict, n_free: int, n_prepared: int) -> None:
     """SceneError naming the first key outside ``BRANCHABLE`` whose value differs between this
     scene's ``physics()`` (``ours``) and the prepared run's (``theirs``), with both values."""
-    ours, theirs = with_defaults(ours), with_defaults(theirs)
+    ours, theirs = (with_masses(with_defaults(d)) for d in (ours, theirs))
     if n_free != n_prepared:
         raise SceneError(f"--from {path}: {n_prepared} free particles in the prepared run, "
                          f"{n_free} here; a branch keeps the prepared particles")
@@ -111,7 +111,9 @@ def refuse_changes(path, ours: dict, theirs: dict, n_free: int, n_prepared: int)
             for i, (p, q) in enumerate(zip(a or [], b or [])):
                 for k in sorted(set(p) | set(q)):
                     if p.get(k) != q.get(k):
-                        _refuse(path, f"[[{table}]] #{i} ({q.get('name', i)}) {k}",
+                        how = (" (given, or density pi (d/2)^2 h with the [contact] height)"
+                               if table == "species" and k == "mass" else "")
+                        _refuse(path, f"[[{table}]] #{i} ({q.get('name', i)}) {k}{how}",
                                 q.get(k, "(absent)"), p.get(k, "(absent)"))
             _refuse(path, f"[[{table}]] entries", len(b or []), len(a or []))
 
@@ -174,6 +176,27 @@ def _changes(ours: dict, theirs: dict) -> list[str]:
         out += [f"[{table}] {k}: {b.get(k, '(absent)')!r} -> {a.get(k, '(absent)')!r}"
                 for k in sorted(set(a) | set(b)) if a.get(k) != b.get(k)]
     return out
+
+
+def with_masses(physics: dict) -> dict:
+    """A ``Scene.physics()`` dict whose [[species]] rows give the disks' masses, however the
+    scene wrote them: a fixed diameter's mass as given or from its density (species.disk_mass
+    with the [contact] height, the same bits as the run's), so that a branch may give the
+    prepared run's disks by density where it gave masses (or the other way round) and is
+    refused where the masses differ; a distribution's disks get theirs from the density and
+    the height, which then both must be the prepared run's."""
+    if not physics.get("species"):
+        return physics
+    height = physics.get("contact", {}).get("height", Contact().height)
+    rows = []
+    for row in physics["species"]:
+        row = dict(row)
+        if "diameter" in row and "density" in row:
+            row["mass"] = disk_mass(row.pop("density"), row["diameter"], height)
+        elif "density" in row:
+            row["[contact] height"] = height
+        rows.append(row)
+    return {**physics, "species": rows}
 
 
 def with_defaults(physics: dict) -> dict:

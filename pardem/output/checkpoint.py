@@ -9,17 +9,26 @@ contacts (``ring_force`` [n,3]); attributes: the step (time = step * dt), time, 
 inner-ring angle (``ring_angle``) and its phase (``ring_phase``: 0 but in a branch that
 changed omega_inner, ``branch.py``), the scene fingerprint (a restart of a different scene
 is refused), whether the snapshot of this state is an end snapshot off the snapshot grid
-(``end_snapshot``: a continued run replaces it, ``series.py``). With
+(``end_snapshot``: a continued run replaces it, ``series.py``), a CRC-32 of every dataset's
+bytes (``checksums``, JSON: a flipped bit is found before any value is used). With
 in-situ averaging, the ring samples so far (``rings_sums``, ``rings_times``,
 ``rings_inner_torque``, ``rings_loads``; attribute ``rings_layout``: see ``averages.py``).
 Version 1 files (pardem before the contact-model slots) are read too. The file is written as
 ``NAME.tmp`` and renamed, so a crash never leaves a broken checkpoint.
+
+Reading (``open_checkpoint``) checks, in this order, before a caller sees any value: the
+format, the version (a whole number this pardem reads: a later one is refused, not guessed
+at), every attribute's type (the JSON ones parsed), every dataset's shape and type, then every
+dataset read once in chunks against its checksum. A damaged or foreign file thus gives one
+SceneError that names the file and what is wrong, never h5py's own exception.
 """
 
 from __future__ import annotations
 
+import json
 import math
 import os
+import zlib
 from contextlib import contextmanager
 from pathlib import Path
 
@@ -36,6 +45,13 @@ LATER_ARRAYS = ("species",)
 particle's species follows from the scene and its id, as its radius and mass do)."""
 PAIRS = ("pair_lo", "pair_hi", "pair_hist", "force_lo", "force_hi", "pair_force", "ring_force")
 VERSION = 2
+READS = (1, 2)
+"""Checkpoint versions this pardem reads."""
+DAMAGED = (OSError, RuntimeError, KeyError, ValueError, TypeError)
+"""What h5py raises reading a damaged file (a bad link table, data past the end of the file,
+a corrupted type or filter description)."""
+VERIFY_ROWS = 1 << 18
+"""Rows of a dataset read at a time to check it: no rank holds a large cell's file whole."""
 
 
 def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
@@ -47,6 +63,13 @@ def save_checkpoint(path: str | os.PathLike, arrays: dict[str, np.ndarray],
             h5.attrs[k] = v
         for k, v in arrays.items():
             h5.create_dataset(k, data=v)
+        h5.attrs["checksums"] = json.dumps({k: checksum(v) for k, v in arrays.items()},
+                                           sort_keys=True)
+
+
+def checksum(a: np.ndarray) -> int:
+    """CRC-32 of an array's bytes in C order (as HDF5 stores a dataset written from it)."""
+    return zlib.crc32(np.ascontiguousarray(a).view(np.uint8).reshape(-1))
 
 
 def checkpoint_file(path: str | os.PathLike) -> Path:
@@ -62,34 +85,132 @@ def checkpoint_file(path: str | os.PathLike) -> Path:
 
 
 @contextmanager
-def open_checkpoint(path: str | os.PathLike):
+def open_checkpoint(path: str | os.PathLike, verify: bool = True):
     """The checkpoint at ``path`` (a file or a run folder), open for reading and checked:
     yields ``(datasets, attrs)``, the datasets unread (h5py's, sliced for the rows wanted;
-    a restart reads only its rank's share), attrs["history_columns"] as a tuple of names."""
+    a restart reads only its rank's share), attrs["history_columns"] as a tuple of names,
+    attrs["scene_physics"] (if written) parsed. ``verify``: read every dataset once against
+    its checksum first (False where the same file was just verified: a restart's ranks read
+    their shares after rank 0 has checked it)."""
     path = checkpoint_file(path)
     try:
         with h5py.File(path, "r") as h5:
-            if h5.attrs.get("format") != "pardem-checkpoint":
-                raise SceneError(f"--restart {path}: not a pardem checkpoint")
-            attrs = dict(h5.attrs)
-            groups = [k for k in h5.keys() if not isinstance(h5[k], h5py.Dataset)]
-            if groups:
-                raise SceneError(f"--restart {path}: corrupted checkpoint: {groups[0]!r} is a "
-                                 "group, not a dataset")
-            arrays = {k: h5[k] for k in h5.keys()}
-            if int(attrs.get("version", 1)) == 1:
-                _upgrade(arrays, attrs)
-            missing = [k for k in ARRAYS + PAIRS if k not in arrays and k not in LATER_ARRAYS]
-            missing += [f"attribute {a!r}" for a in ATTRS if a not in attrs]
-            if missing:
-                raise SceneError(f"--restart {path}: corrupted checkpoint: it lacks "
-                                 f"{', '.join(missing)}")
-            _check_layout(path, arrays, attrs)
-            names = str(attrs.get("history_columns", ""))
-            attrs["history_columns"] = tuple(names.split(",")) if names else ()
+            try:
+                arrays, attrs = _checked(path, h5, verify)
+            except DAMAGED as e:  # h5py on a damaged object header, type or link table
+                raise SceneError(f"--restart {path}: corrupted checkpoint: it cannot be read "
+                                 f"({str(e).strip(chr(39)) or type(e).__name__})") from e
             yield arrays, attrs
     except (OSError, RuntimeError) as e:  # h5py: RuntimeError for a damaged link table
         raise SceneError(f"--restart {path}: unreadable or truncated checkpoint ({e})") from e
+
+
+def _checked(path, h5, verify: bool) -> tuple[dict, dict]:
+    """``open_checkpoint``'s datasets and attributes, every check passed."""
+    if h5.attrs.get("format") != "pardem-checkpoint":
+        raise SceneError(f"--restart {path}: not a pardem checkpoint")
+    attrs = dict(h5.attrs)
+    version = _version(path, attrs.get("version", 1))
+    groups = [k for k in h5.keys() if not isinstance(h5[k], h5py.Dataset)]
+    if groups:
+        raise SceneError(f"--restart {path}: corrupted checkpoint: {groups[0]!r} is a "
+                         "group, not a dataset")
+    arrays = {k: h5[k] for k in h5.keys()}
+    if version == 1:
+        _upgrade(arrays, attrs)
+    missing = [k for k in ARRAYS + PAIRS if k not in arrays and k not in LATER_ARRAYS]
+    missing += [f"attribute {a!r}" for a in ATTRS if a not in attrs]
+    if missing:
+        raise SceneError(f"--restart {path}: corrupted checkpoint: it lacks "
+                         f"{', '.join(missing)}")
+    _check_attrs(path, attrs)
+    _check_layout(path, arrays, attrs)
+    if verify:
+        _verify(path, h5, attrs.get("checksums"))
+    names = str(attrs.get("history_columns", ""))
+    attrs["history_columns"] = tuple(names.split(",")) if names else ()
+    return arrays, attrs
+
+
+def _version(path, value) -> int:
+    """The file's format version as a whole number this pardem reads, else a SceneError."""
+    if isinstance(value, bytes):
+        value = value.decode(errors="replace")
+    if isinstance(value, (int, np.integer)) and not isinstance(value, bool):
+        version = int(value)
+    elif isinstance(value, str) and value.strip().isdigit():
+        version = int(value)
+    else:
+        raise SceneError(f"--restart {path}: not a checkpoint this pardem can read: its format "
+                         f"version {value!r} is not a whole number (this pardem reads "
+                         f"versions {READS[0]} to {READS[-1]})")
+    if version > READS[-1]:
+        raise SceneError(f"--restart {path}: written by a later pardem (checkpoint format "
+                         f"version {version}); this pardem reads versions {READS[0]} to "
+                         f"{READS[-1]}: continue it with the pardem that wrote it")
+    if version not in READS:
+        raise SceneError(f"--restart {path}: checkpoint format version {version} is not one "
+                         f"this pardem reads (versions {READS[0]} to {READS[-1]})")
+    return version
+
+
+JSON_ATTRS = ("scene_physics", "rings_layout", "checksums")
+TEXT_ATTRS = ("fingerprint", "history_columns") + JSON_ATTRS
+
+
+def _check_attrs(path, attrs: dict) -> None:
+    """Each known attribute of its type: numbers finite where they must be, text as text,
+    the JSON ones parsed (``scene_physics``, ``checksums``: replaced by their values)."""
+    def bad(name, want):
+        value = attrs[name]
+        text = repr(value.item() if isinstance(value, np.generic) else value)
+        raise SceneError(f"--restart {path}: corrupted checkpoint: attribute {name!r} is "
+                         f"{text if len(text) <= 60 else text[:57] + '...'}, expected {want}")
+    for name in TEXT_ATTRS:
+        if isinstance(attrs.get(name), bytes):
+            attrs[name] = attrs[name].decode(errors="replace")
+        if name in attrs and not isinstance(attrs[name], str):
+            bad(name, "text")
+    for name in JSON_ATTRS:
+        if name in attrs:
+            try:
+                value = json.loads(attrs[name])
+            except ValueError:
+                bad(name, "JSON text")
+            if not isinstance(value, dict):
+                bad(name, "a JSON object")
+            if name != "rings_layout":  # the averages' reader parses its own
+                attrs[name] = value
+    for name in ("time", "dt", "ring_angle", "ring_phase"):
+        if name in attrs and not (isinstance(attrs[name], (float, int, np.floating, np.integer))
+                                  and np.isfinite(attrs[name])):
+            bad(name, "a finite number")
+    for name in ("step", "n_free", "ranks"):
+        if name in attrs and not (isinstance(attrs[name], (int, np.integer))
+                                  and not isinstance(attrs[name], (bool, np.bool_))
+                                  and attrs[name] >= 0):
+            bad(name, "a whole number >= 0")
+
+
+def _verify(path, h5, checksums: dict | None) -> None:
+    """Every dataset read once, a chunk of rows at a time, against its checksum (files
+    without checksums, of an earlier pardem: read, so that damage is found here)."""
+    for key in h5.keys():
+        ds = h5[key]
+        crc, rows = 0, ds.shape[0] if ds.ndim else 1
+        try:
+            if ds.ndim == 0:
+                crc = zlib.crc32(np.ascontiguousarray(ds[()]).view(np.uint8).reshape(-1))
+            for a in range(0, rows if ds.ndim else 0, VERIFY_ROWS):
+                chunk = np.ascontiguousarray(ds[a:a + VERIFY_ROWS])
+                crc = zlib.crc32(chunk.view(np.uint8).reshape(-1), crc)
+        except DAMAGED as e:
+            raise SceneError(f"--restart {path}: corrupted checkpoint: dataset {key!r} cannot "
+                             f"be read ({str(e) or type(e).__name__})") from e
+        if checksums is not None and checksums.get(key, crc) != crc:
+            raise SceneError(f"--restart {path}: corrupted checkpoint: dataset {key!r} does "
+                             "not match its checksum (the file was changed or damaged after "
+                             "it was written)")
 
 
 ATTRS = ("step", "time", "dt", "fingerprint")

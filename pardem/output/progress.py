@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from ..boundaries.walls import wall_work_note
 from ..core.timestep import off_step_text
 from ..core.timing import CLOSING, DRIFT, FORCES, PACK, REFRESH, STEPS, UNPACK
 
@@ -29,8 +30,9 @@ def log_line(out_dir: Path | None, text: str) -> None:
 
 def start_notes(scene, step_length, end: float, averaging: bool) -> list[str]:
     """What a run rounds or leaves out of what the scene asks for: output times that are not
-    a whole number of steps, an [averaging] window past the run's end."""
-    notes = []
+    a whole number of steps, an [averaging] window past the run's end; and rings whose wall
+    disks will cost more time than the free disks."""
+    notes = [] if wall_work_note(scene) is None else [wall_work_note(scene)]
     off = off_step_text(scene, step_length)
     if off:
         notes.append(f"{off}: rounded to the nearest step")

@@ -35,11 +35,15 @@ def oversubscription_warning(ranks: int, cores: int) -> str | None:
     """Why ``ranks`` on a node with ``cores`` for them will crawl, or None if each has one."""
     if ranks <= cores:
         return None
-    return (f"{ranks} ranks share {cores} cores on one node: a rank that waits for its "
-            "neighbours' ghosts at every step keeps polling on a core that another rank needs, "
-            f"so each step waits for the slowest ({OVERSUBSCRIBED_SLOWDOWN}). Run at most "
-            f"{cores} ranks per node. ([warnings] oversubscribe = true silences this, for runs "
-            "that mean it, such as correctness tests)")
+
+    def count(n: int, noun: str) -> str:
+        return f"{n} {noun}" if n == 1 else f"{n} {noun}s"
+
+    return (f"{count(ranks, 'rank')} share {count(cores, 'core')} on one node: a rank that "
+            "waits for its neighbours' ghosts at every step keeps polling on a core that another "
+            f"rank needs, so each step waits for the slowest ({OVERSUBSCRIBED_SLOWDOWN}). Run at "
+            f"most {count(cores, 'rank')} per node. ([warnings] oversubscribe = true silences "
+            "this, for runs that mean it, such as correctness tests)")
 
 
 class RunWarnings:
@@ -83,17 +87,7 @@ class RunWarnings:
         if phase in self.given:
             return
         self.given.add(phase)
-        stiffer = "stiffen the contact (k_n; youngs_modulus with the Hertz law)"
-        when, remedy = {
-            "run": ("the run", f"{stiffer}, or slow the disks down"),
-            "compression": (f"the compression (to t = {self.t_comp:g} s)",
-                            "compress more slowly (a longer compression_time) if the ring's "
-                            "push does it, to a lower density (fewer disks, a larger "
-                            "outer_radius) if the packing is too dense for the cell, or "
-                            f"{stiffer}"),
-            "shear": ("the shear (after the compression)",
-                      f"{stiffer}, shear more slowly (a smaller omega_inner) or make the "
-                      "packing less dense")}[phase]
+        when, remedy = self._when_and_remedy(phase)
         warn(sim, f"t = {sim.time:.4g} s, during {when}: the largest overlap is "
                   f"{100 * overlap:.2f} % of the smaller diameter of its disks, above [warnings] "
                   f"overlap = {100 * self.limit:g} %. The contact law stands for a small elastic "
@@ -101,3 +95,18 @@ class RunWarnings:
                   f"and volume fractions no longer follow the material: {remedy}. (Said once "
                   "per phase; [warnings] overlap sets the level, false silences this; at 25 % "
                   "the run stops)")
+
+    def _when_and_remedy(self, phase: str) -> tuple[str, str]:
+        """The phase in words and what to do about a deep overlap in it (built for the phase
+        at hand only: a free scene has no compression time to name)."""
+        stiffer = "stiffen the contact (k_n; youngs_modulus with the Hertz law)"
+        if phase == "run":
+            return "the run", f"{stiffer}, or slow the disks down"
+        if phase == "compression":
+            return (f"the compression (to t = {self.t_comp:g} s)",
+                    "compress more slowly (a longer compression_time) if the ring's push does "
+                    "it, to a lower density (fewer disks, a larger outer_radius) if the packing "
+                    f"is too dense for the cell, or {stiffer}")
+        return ("the shear (after the compression)",
+                f"{stiffer}, shear more slowly (a smaller omega_inner) or make the packing less "
+                "dense")

@@ -87,7 +87,7 @@ def test_ring_too_fast_for_the_contact_law_is_refused():
     msg = str(err.value)
     assert msg.startswith(
         "[geometry] omega_inner = 100.0: the ring surface moves at up to 10.3 m/s")
-    assert "|omega_inner| <= 18.41 rad/s" in msg
+    assert "|omega_inner| <= 18.4 rad/s" in msg  # 18.407 rounded down: it holds as printed
     assert resolve_dt(couette_scene(geometry={"omega_inner": 18.4})) > 0
     with pytest.raises(SceneError, match=r"compression_time = 0.0: the outer ring must move"):
         resolve_dt(couette_scene(geometry={"compression_time": 0.0}))
