@@ -1,10 +1,12 @@
 """Nothing is lost and nothing damaged is used: corrupted checkpoints are refused with the file
 named, and a run killed with SIGKILL continues from its last checkpoint bit for bit."""
 
+import json
 import os
 import subprocess
 import sys
 import time
+import zlib
 
 import h5py
 import numpy as np
@@ -31,11 +33,18 @@ def checkpoint(tmp_path):
     return tmp_path / "checkpoint.h5"
 
 
-def damaged(checkpoint, tmp_path, edit):
+def damaged(checkpoint, tmp_path, edit, checksums=True):
+    """A copy of ``checkpoint`` edited by ``edit``; ``checksums``: with the checksums written
+    anew for the edited data, as a deliberate edit would, so that the checks behind them are
+    what refuses it."""
     bad = tmp_path / "bad.h5"
     bad.write_bytes(checkpoint.read_bytes())
     with h5py.File(bad, "r+") as h5:
         edit(h5)
+        if checksums:
+            h5.attrs["checksums"] = json.dumps({k: zlib.crc32(np.ascontiguousarray(
+                h5[k][()]).view(np.uint8).reshape(-1)) for k in h5.keys()
+                if isinstance(h5[k], h5py.Dataset)})
     return bad
 
 
@@ -55,7 +64,8 @@ def damaged(checkpoint, tmp_path, edit):
      "e0 of particle row 300"),
     ("step 1e15", lambda h5: h5.attrs.__setitem__("step", 10**15),
      "step 1000000000000000, dt"),
-    ("a negative step", lambda h5: h5.attrs.__setitem__("step", -1), "do not agree"),
+    ("a negative step", lambda h5: h5.attrs.__setitem__("step", -1),
+     "attribute 'step' is -1, expected a whole number >= 0"),
     ("no fingerprint", lambda h5: h5.attrs.__delitem__("fingerprint"),
      "it lacks attribute 'fingerprint'"),
     ("x of shape (N, 3)", lambda h5: (h5.__delitem__("x"), h5.create_dataset(
@@ -73,6 +83,15 @@ def test_corrupted_checkpoint_is_refused(checkpoint, tmp_path, what, edit, messa
         Simulation(cell(), restart=bad)
     assert str(bad) in str(err.value) and "corrupted checkpoint" in str(err.value), what
     assert message in str(err.value), what
+
+
+def test_an_edit_that_leaves_the_checksums_is_refused_by_them(checkpoint, tmp_path):
+    """The same edit as "garbage in a position" without new checksums: the reader names the
+    dataset whose bytes changed before it looks at any value."""
+    bad = damaged(checkpoint, tmp_path, lambda h5: h5["x"].__setitem__((5, 0), 1.0),
+                  checksums=False)
+    with pytest.raises(SceneError, match="dataset 'x' does not match its checksum"):
+        Simulation(cell(), restart=bad)
 
 
 def test_checkpoint_with_overwritten_bytes_is_refused(checkpoint, tmp_path):
