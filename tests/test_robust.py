@@ -62,7 +62,9 @@ def small_cell():
     g = {"inner_radius": 0.05, "outer_radius": 0.09, "outer_start_radius": 0.11,
          "compression_time": 0.1, "omega_inner": 1.0}
     return couette_scene(counts=(260, 40), geometry=g, time={"end": 0.2},
-                         output={"checkpoint_interval": 0.05, "snapshot_interval": 0.05})
+                         output={"checkpoint_interval": 0.05, "snapshot_interval": 0.05},
+                         averaging={"start": 0.02, "end": 0.2, "sample_interval": 0.01,
+                                    "ring_width": 2e-3})
 
 
 @pytest.fixture(scope="module")
@@ -132,12 +134,30 @@ def test_one_flipped_bit_in_the_data_fails_the_checksum(checkpoint, tmp_path, ca
     ({"version": 3}, "written by a later pardem (checkpoint format version 3)"),
     ({"step": -4}, "attribute 'step' is -4, expected a whole number >= 0"),
     ({"checksums": "[1, 2]"}, "attribute 'checksums' is '[1, 2]', expected a JSON object"),
+    ({"end_snapshot": np.array([1, 2])}, "attribute 'end_snapshot' is array([1, 2]), expected 0"),
+    ({"step": np.uint64(2**64 - 1)}, "attribute 'step' is 18446744073709551615, expected a whole"),
 ])
 def test_a_foreign_checkpoint_attribute_is_refused_by_name(checkpoint, tmp_path, capsys,
                                                             option, attrs, says):
     ckpt, scene = checkpoint
     err = refused(scene, changed(ckpt, tmp_path / "c.h5", **attrs), option, tmp_path, capsys)
     assert says in err
+
+
+@pytest.mark.parametrize("key", ["rings_sums", "rings_times", "rings_loads"])
+def test_a_checkpoint_without_its_ring_samples_is_refused_by_name(checkpoint, tmp_path, capsys,
+                                                                   key):
+    ckpt, scene = checkpoint
+    bad = tmp_path / "c.h5"
+    bad.write_bytes(ckpt.read_bytes())
+    with h5py.File(bad, "a") as h5:
+        del h5[key]
+        if key == "rings_loads":
+            del h5["rings_inner_torque"]
+    err = refused(scene, bad, "--restart", tmp_path, capsys)
+    assert "corrupted checkpoint" in err and ("rings_sums" if key == "rings_sums" else
+                                              "rings_times" if key == "rings_times"
+                                              else "rings_loads") in err
 
 
 def test_a_branch_from_a_checkpoint_without_its_scene_points_to_restart(

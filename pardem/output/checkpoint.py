@@ -190,8 +190,11 @@ def _check_attrs(path, attrs: dict) -> None:
     for name in ("step", "n_free", "ranks"):
         if name in attrs and not (isinstance(attrs[name], (int, np.integer))
                                   and not isinstance(attrs[name], (bool, np.bool_))
-                                  and attrs[name] >= 0):
+                                  and 0 <= int(attrs[name]) < 2**62):
             bad(name, "a whole number >= 0")
+    if "end_snapshot" in attrs and not (np.ndim(attrs["end_snapshot"]) == 0 and
+                                        attrs["end_snapshot"] in (0, 1)):
+        bad("end_snapshot", "0 or 1")
 
 
 def _verify(path, h5, checksums: dict | None) -> None:
@@ -248,6 +251,16 @@ def _check_layout(path, arrays: dict[str, np.ndarray], attrs: dict[str, object])
         if a.dtype.kind not in "iuf" or a.ndim != 2 or a.shape[0] not in (rows[count][0], 0):
             raise SceneError(f"--restart {path}: corrupted checkpoint: {key} has shape "
                              f"{a.shape} of {a.dtype}, expected ({rows[count][0]}, columns)")
+    if "rings_layout" in attrs:  # the ring samples so far: the restart continues from them
+        for key, ndim in (("rings_sums", 3), ("rings_times", 1)):
+            a = arrays.get(key)
+            if a is None or a.dtype.kind not in "iuf" or a.ndim != ndim:
+                raise SceneError(f"--restart {path}: corrupted checkpoint: its ring samples "
+                                 f"({key}) are missing or not a {ndim}-D array of numbers")
+        loads = [k for k in ("rings_loads", "rings_inner_torque") if k in arrays]
+        if not loads or any(arrays[k].dtype.kind not in "iuf" for k in loads):
+            raise SceneError(f"--restart {path}: corrupted checkpoint: the ring loads of its "
+                             "samples (rings_loads) are missing or not numbers")
     step, dt, time = attrs["step"], attrs["dt"], attrs["time"]
     if not (isinstance(step, (int, np.integer)) and step >= 0 and np.isfinite(dt) and dt > 0
             and math.isclose(time, step * dt, rel_tol=1e-12)):
