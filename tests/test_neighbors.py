@@ -40,7 +40,8 @@ def test_cell_list_equals_brute_force():
 
 
 def test_wall_pairs_reach_wall_skin_farther():
-    """Rows n_own:n_local are wall disks: a free particle and a wall disk are listed within
+    """Rows n_own:n_local are wall disks (gids above every free disk's, as in a cell, where
+    free disks come first): a free particle and a wall disk are listed within
     a + a' + skin + wall_skin, free pairs (owned or ghost partners) within a + a' + skin; no
     wall-wall, ghost-ghost or ghost-wall pairs. Brute force over all pairs."""
     for seed in range(5):
@@ -48,12 +49,14 @@ def test_wall_pairs_reach_wall_skin_farther():
         n_own = int((kind == 0).sum())
         n_local = n_own + (x.shape[0] - n_own) // 2  # the rest: ghosts
         skin, wall_skin = 0.7e-3, 1.4e-3
+        role = np.where(np.arange(x.shape[0]) < n_own, 0,
+                        np.where(np.arange(x.shape[0]) < n_local, 1, 2))  # own, wall, ghost
+        # numbered as a cell numbers them: every wall disk after every free disk
+        gid = gid + (role == 1) * (gid.max() + 1)
         pi = np.zeros(40000, np.int32)
         pj = np.zeros(40000, np.int32)
         count = build_pairs(x, r, gid, n_own, n_local, x.shape[0], skin, wall_skin, pi, pj)
         got = set(zip(gid[pi[:count]].tolist(), gid[pj[:count]].tolist()))
-        role = np.where(np.arange(x.shape[0]) < n_own, 0,
-                        np.where(np.arange(x.shape[0]) < n_local, 1, 2))  # own, wall, ghost
         want = set()
         for i in range(x.shape[0]):
             for j in range(x.shape[0]):
