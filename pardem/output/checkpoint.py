@@ -99,6 +99,8 @@ def open_checkpoint(path: str | os.PathLike, verify: bool = True):
                 arrays, attrs = _checked(path, h5, verify)
             except SceneError:  # the checks' own verdicts (a ValueError too) stand as said
                 raise
+            except (OSError, RuntimeError):  # said below, as for the file itself
+                raise
             except DAMAGED as e:  # h5py on a damaged object header, type or link table
                 raise SceneError(f"--restart {path}: corrupted checkpoint: it cannot be read "
                                  f"({str(e).strip(chr(39)) or type(e).__name__})") from e
