@@ -109,7 +109,7 @@ def test_a_checkpoint_with_every_997th_byte_flipped_is_refused_by_name(
     bad = tmp_path / "flipped.h5"
     bad.write_bytes(bytes(data))
     err = refused(scene, bad, option, tmp_path, capsys)
-    assert f"{option} {bad}:" in err and "corrupted" in err
+    assert f"{option} {bad}:" in err and ("corrupted" in err or "unreadable" in err)
 
 
 @pytest.mark.parametrize("option", ["--restart", "--from"])
